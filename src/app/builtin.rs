@@ -1,0 +1,47 @@
+//! The scenarios shipped with the solver (`scenarios/*.toml`, embedded in the binary so
+//! `tlsmpm run NAME` and `tlsmpm list` work from any directory).
+
+/// A built-in scenario: name, one-line description, TOML text.
+pub struct Builtin {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub toml: &'static str,
+}
+
+/// All built-in scenarios.
+pub const BUILTIN: &[Builtin] = &[
+    Builtin {
+        name: "vibrating_bar",
+        description: "vibrating bar, small deformation (SPEC 6.2): 40 cells, 12 PPC, exact solution",
+        toml: include_str!("../../scenarios/vibrating_bar.toml"),
+    },
+    Builtin {
+        name: "vibrating_bar_large",
+        description: "vibrating bar, large deformation (SPEC 6.3): Hill law, 20 cells, 8 PPC, grid crossing",
+        toml: include_str!("../../scenarios/vibrating_bar_large.toml"),
+    },
+    Builtin {
+        name: "column_compaction",
+        description: "column compaction (SPEC 6.4): Hill law, ramped gravity, 50 cells, 20 PPC",
+        toml: include_str!("../../scenarios/column_compaction.toml"),
+    },
+];
+
+/// The built-in scenario called `name`, if any.
+pub fn find(name: &str) -> Option<&'static Builtin> {
+    BUILTIN.iter().find(|b| b.name == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_parses_and_validates() {
+        for b in BUILTIN {
+            let s = crate::config::from_str(b.toml, b.name, &[]).unwrap();
+            s.validate().unwrap();
+            crate::app::build_simulation(&s, false).unwrap();
+        }
+    }
+}

@@ -1,0 +1,246 @@
+//! One simulation with its outputs: `summary.json`, `particles.csv`, `history.csv`,
+//! snapshots and the stress-profile plot. On a numerical failure the state of the last
+//! completed step is written (status `"failed"`) before the error is returned.
+
+use crate::app::build_simulation;
+use crate::config::{Scenario, VelocityReference};
+use crate::error::{Error, Result};
+use crate::numerics::norms::{relative_l2, rms};
+use crate::output::csv::{write_history, write_particles, ExactColumn};
+use crate::output::plot::{profile_plot, Axes, Series, Style};
+use crate::output::summary::{Conservation, Errors, SolverSummary};
+use crate::output::Summary;
+use crate::particles::Particles;
+use crate::physics::Simulation;
+use crate::problems::{Field, PlotAxis, Problem};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How to run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Output directory (created if missing).
+    pub out_dir: PathBuf,
+    /// Worker threads (`None`: rayon's default, one per core).
+    pub threads: Option<usize>,
+    /// Run even if the time step is above the stability limit.
+    pub force: bool,
+}
+
+/// Run `scenario` (named `name` in the summary), writing all outputs into
+/// `options.out_dir`. `progress(step, n_steps)` is called after every step.
+pub fn run(
+    scenario: &Scenario,
+    name: &str,
+    options: &RunOptions,
+    progress: &mut (dyn FnMut(usize, usize) + Send),
+) -> Result<Summary> {
+    let pool = thread_pool(options.threads)?;
+    let (problem, mut simulation) = build_simulation(scenario, options.force)?;
+    std::fs::create_dir_all(&options.out_dir).map_err(|e| Error::write(&options.out_dir, e))?;
+    let n_steps = scenario.n_steps();
+    let snapshots = scenario.output.snapshots.min(n_steps);
+    let clock = Instant::now();
+    let mut snapshot_error = None;
+    let outcome = pool.install(|| {
+        simulation.run(
+            n_steps,
+            &|t| problem.body_acceleration(t),
+            &mut |sim: &Simulation| {
+                progress(sim.steps_done, n_steps);
+                // Snapshot k of `snapshots` at step ceil(k n / snapshots), the last one final.
+                if snapshots > 0 && (sim.steps_done * snapshots) % n_steps < snapshots {
+                    let k = sim.steps_done * snapshots / n_steps;
+                    let path = options.out_dir.join(format!("snapshot_{k:04}.csv"));
+                    let columns = exact_columns(problem.as_ref(), sim, scenario);
+                    if let Err(e) = write_particles(&path, &sim.particles, &as_refs(&columns)) {
+                        snapshot_error = Some(e);
+                    }
+                }
+                Ok(())
+            },
+        )
+    });
+    let wall_seconds = clock.elapsed().as_secs_f64();
+    if let Some(e) = snapshot_error {
+        return Err(e);
+    }
+    let summary = write_outputs(
+        scenario,
+        name,
+        problem.as_ref(),
+        &simulation,
+        &options.out_dir,
+        pool.current_num_threads(),
+        wall_seconds,
+        outcome.as_ref().err(),
+    )?;
+    outcome.map(|()| summary)
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    if threads == Some(0) {
+        return Err(Error::invalid("--threads", 0, "must be at least 1"));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .map_err(|e| Error::invalid("--threads", threads.unwrap_or(0), e.to_string()))
+}
+
+/// Exact values of every known field at every particle, at the current time (velocity at
+/// `t - dt/2` with `output.velocity_reference = "half_step"`).
+pub fn exact_columns(
+    problem: &dyn Problem,
+    simulation: &Simulation,
+    scenario: &Scenario,
+) -> Vec<(Field, Vec<f64>)> {
+    let t = simulation.time();
+    let dt = scenario.time.dt;
+    problem
+        .exact_fields()
+        .iter()
+        .map(|&field| {
+            let time = match (field, scenario.output.velocity_reference) {
+                (Field::Velocity, VelocityReference::HalfStep) if simulation.steps_done > 0 => {
+                    t - 0.5 * dt
+                }
+                _ => t,
+            };
+            let values = simulation
+                .particles
+                .x0
+                .iter()
+                .map(|&x0| problem.exact(field, x0, time).unwrap_or(f64::NAN))
+                .collect();
+            (field, values)
+        })
+        .collect()
+}
+
+fn as_refs(columns: &[(Field, Vec<f64>)]) -> Vec<ExactColumn<'_>> {
+    columns
+        .iter()
+        .map(|(field, values)| ExactColumn {
+            field: *field,
+            values,
+        })
+        .collect()
+}
+
+fn numerical(particles: &Particles, field: Field) -> &[f64] {
+    match field {
+        Field::Displacement => &particles.u,
+        Field::Velocity => &particles.v,
+        Field::Stress => &particles.stress,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn write_outputs(
+    scenario: &Scenario,
+    name: &str,
+    problem: &dyn Problem,
+    simulation: &Simulation,
+    out_dir: &Path,
+    threads: usize,
+    wall_seconds: f64,
+    failure: Option<&Error>,
+) -> Result<Summary> {
+    let particles = &simulation.particles;
+    let columns = exact_columns(problem, simulation, scenario);
+    let errors = (!columns.is_empty()).then(|| {
+        let mut errors = Errors::default();
+        for (field, exact) in &columns {
+            let num = numerical(particles, *field);
+            errors.rms.insert(field.name().into(), rms(num, exact));
+            errors
+                .rel_l2
+                .insert(field.name().into(), relative_l2(num, exact));
+        }
+        errors
+    });
+    let (basis, reconstruction) = simulation.stepper.method_names();
+    let summary = Summary {
+        scenario: name.to_string(),
+        status: if failure.is_some() { "failed" } else { "completed" }.into(),
+        failure: failure.map(|e| e.to_string()),
+        problem: problem.name().into(),
+        basis: basis.into(),
+        reconstruction: reconstruction.into(),
+        n_particles: particles.len(),
+        n_cells: scenario.grid.cells,
+        n_steps: simulation.steps_done,
+        time: simulation.time(),
+        threads,
+        wall_seconds,
+        errors,
+        conservation: Conservation {
+            max_rel_mass_error: simulation.max_mass_error,
+            max_rel_momentum_error: simulation.max_momentum_error,
+        },
+        grid_crossings: simulation.grid_crossings,
+        solver: SolverSummary {
+            kind: "lumped".into(),
+            total_iterations: 0,
+            max_iterations: 0,
+        },
+        config: scenario.clone(),
+    };
+    write_particles(&out_dir.join("particles.csv"), particles, &as_refs(&columns))?;
+    write_history(&out_dir.join("history.csv"), &simulation.history)?;
+    if scenario.output.plots {
+        stress_plot(&out_dir.join("stress.svg"), problem, simulation, &columns)?;
+    }
+    summary.write(&out_dir.join("summary.json"))?;
+    Ok(summary)
+}
+
+/// Stress profile: particles (points) against the exact stress (line), over the current
+/// or initial position as the problem prefers.
+fn stress_plot(
+    path: &Path,
+    problem: &dyn Problem,
+    simulation: &Simulation,
+    columns: &[(Field, Vec<f64>)],
+) -> Result<()> {
+    let p = &simulation.particles;
+    let (position, x_label) = match problem.plot_axis() {
+        PlotAxis::Current => (&p.x, "x [m]"),
+        PlotAxis::Initial => (&p.x0, "initial position X [m]"),
+    };
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by(|&a, &b| position[a].total_cmp(&position[b]));
+    let xs: Vec<f64> = order.iter().map(|&k| position[k]).collect();
+    let stress: Vec<f64> = order.iter().map(|&k| p.stress[k]).collect();
+    let exact: Option<Vec<f64>> = columns
+        .iter()
+        .find(|(f, _)| *f == Field::Stress)
+        .map(|(_, values)| order.iter().map(|&k| values[k]).collect());
+    let (basis, reconstruction) = simulation.stepper.method_names();
+    let label = format!("{basis} / {reconstruction}");
+    let mut series = vec![Series {
+        label: &label,
+        x: &xs,
+        y: &stress,
+        style: Style::Points,
+    }];
+    if let Some(exact) = &exact {
+        series.push(Series {
+            label: "exact",
+            x: &xs,
+            y: exact,
+            style: Style::Line,
+        });
+    }
+    let title = format!("{}: stress at t = {:.4e} s", problem.name(), simulation.time());
+    profile_plot(
+        path,
+        &Axes {
+            title: &title,
+            x_label,
+            y_label: "stress [Pa]",
+        },
+        &series,
+    )
+}

@@ -1,0 +1,183 @@
+//! Convergence studies: one scenario over several cell counts (same particles per cell),
+//! errors per field and observed orders `log(e_k-1 / e_k) / log(h_k-1 / h_k)`; writes
+//! `study.csv` and `convergence.svg`, and each run's outputs into `cells_<N>/`.
+
+use crate::app::{run, RunOptions};
+use crate::config::Scenario;
+use crate::error::{Error, Result};
+use crate::numerics::norms::observed_order;
+use crate::output::plot::{loglog_plot, Axes, Series, Style};
+use crate::output::write_atomic;
+use crate::problems::Field;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Errors of one resolution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StudyRow {
+    pub cells: usize,
+    pub h: f64,
+    pub n_particles: usize,
+    /// `(field, rms, rel_l2, observed rms order vs the previous row)`.
+    pub fields: Vec<(Field, f64, f64, f64)>,
+}
+
+/// Run the study; returns one row per cell count (in the given order).
+pub fn study(
+    scenario: &Scenario,
+    name: &str,
+    cells: &[usize],
+    options: &RunOptions,
+    progress: &mut (dyn FnMut(usize, usize, usize) + Send),
+) -> Result<Vec<StudyRow>> {
+    if cells.is_empty() {
+        return Err(Error::invalid("--cells", "(empty)", "give at least one cell count"));
+    }
+    let mut rows: Vec<StudyRow> = Vec::new();
+    for &n in cells {
+        let mut resolved = scenario.clone();
+        resolved.grid.cells = n;
+        let run_options = RunOptions {
+            out_dir: options.out_dir.join(format!("cells_{n}")),
+            ..options.clone()
+        };
+        let summary = run(&resolved, name, &run_options, &mut |step, total| {
+            progress(n, step, total)
+        })?;
+        let errors = summary.errors.unwrap_or_default();
+        let length = summary_length(&resolved, n, summary.n_particles);
+        let h = length / n as f64;
+        let mut fields = Vec::new();
+        for field in Field::ALL {
+            if let (Some(&e_rms), Some(&e_l2)) =
+                (errors.rms.get(field.name()), errors.rel_l2.get(field.name()))
+            {
+                let order = rows
+                    .last()
+                    .and_then(|prev| {
+                        prev.fields
+                            .iter()
+                            .find(|f| f.0 == field)
+                            .map(|f| observed_order(f.1, prev.h, e_rms, h))
+                    })
+                    .unwrap_or(f64::NAN);
+                fields.push((field, e_rms, e_l2, order));
+            }
+        }
+        rows.push(StudyRow {
+            cells: n,
+            h,
+            n_particles: summary.n_particles,
+            fields,
+        });
+    }
+    write_study_csv(&options.out_dir.join("study.csv"), &rows)?;
+    if scenario.output.plots {
+        convergence_plot(&options.out_dir.join("convergence.svg"), name, &rows)?;
+    }
+    Ok(rows)
+}
+
+/// The domain length of a resolved scenario (problem default when the key is absent).
+fn summary_length(scenario: &Scenario, _cells: usize, _n: usize) -> f64 {
+    crate::problems::build(scenario)
+        .map(|p| p.length())
+        .unwrap_or(1.0)
+}
+
+/// The study as a text table: errors and observed orders per field.
+pub fn format_table(rows: &[StudyRow]) -> String {
+    let mut out = String::new();
+    let Some(first) = rows.first() else {
+        return out;
+    };
+    let _ = write!(out, "{:>6} {:>10}", "cells", "h");
+    for (field, ..) in &first.fields {
+        let _ = write!(out, " {:>14} {:>6}", format!("rms {}", short(*field)), "order");
+    }
+    out.push('\n');
+    for row in rows {
+        let _ = write!(out, "{:>6} {:>10.4e}", row.cells, row.h);
+        for &(_, e_rms, _, order) in &row.fields {
+            let order = if order.is_nan() {
+                "-".to_string()
+            } else {
+                format!("{order:.2}")
+            };
+            let _ = write!(out, " {e_rms:>14.4e} {order:>6}");
+        }
+        out.push('\n');
+    }
+    out
+}
+
+fn short(field: Field) -> &'static str {
+    match field {
+        Field::Displacement => "u",
+        Field::Velocity => "v",
+        Field::Stress => "sigma",
+    }
+}
+
+fn write_study_csv(path: &Path, rows: &[StudyRow]) -> Result<()> {
+    let mut out = String::from("cells,h,n_particles");
+    if let Some(first) = rows.first() {
+        for (field, ..) in &first.fields {
+            let f = field.name();
+            let _ = write!(out, ",rms_{f},rel_l2_{f},order_{f}");
+        }
+    }
+    out.push('\n');
+    for row in rows {
+        let _ = write!(out, "{},{:e},{}", row.cells, row.h, row.n_particles);
+        for &(_, e_rms, e_l2, order) in &row.fields {
+            let order = if order.is_nan() {
+                String::new()
+            } else {
+                format!("{order:.6}")
+            };
+            let _ = write!(out, ",{e_rms:e},{e_l2:e},{order}");
+        }
+        out.push('\n');
+    }
+    write_atomic(path, out.as_bytes())
+}
+
+fn convergence_plot(path: &Path, name: &str, rows: &[StudyRow]) -> Result<()> {
+    let Some(first) = rows.first() else {
+        return Ok(());
+    };
+    let h: Vec<f64> = rows.iter().map(|r| r.h).collect();
+    let data: Vec<(String, Vec<f64>)> = first
+        .fields
+        .iter()
+        .enumerate()
+        .map(|(k, (field, ..))| {
+            (
+                format!("RMS {}", field.name()),
+                rows.iter()
+                    .map(|r| r.fields.get(k).map_or(f64::NAN, |f| f.1))
+                    .collect(),
+            )
+        })
+        .collect();
+    let series: Vec<Series> = data
+        .iter()
+        .map(|(label, y)| Series {
+            label,
+            x: &h,
+            y,
+            style: Style::Line,
+        })
+        .collect();
+    let title = format!("{name}: convergence");
+    loglog_plot(
+        path,
+        &Axes {
+            title: &title,
+            x_label: "cell size h [m]",
+            y_label: "RMS error",
+        },
+        &series,
+    )
+}

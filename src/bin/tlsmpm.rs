@@ -1,0 +1,210 @@
+//! `tlsmpm`: the command line (DESIGN §2). A thin layer over the library: argument parsing,
+//! scenario loading, the progress bar, and the mapping of errors to exit codes
+//! (0 success, 2 bad input, 1 numerical failure after the partial output is written).
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+use tlsmpm::app::{self, builtin, RunOptions};
+use tlsmpm::config::{self, Scenario};
+
+#[derive(Parser)]
+#[command(name = "tlsmpm", version, about = "Material point methods with conservative Taylor least squares")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run one simulation.
+    Run {
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Run a scenario over several cell counts and report convergence orders.
+    Study {
+        #[command(flatten)]
+        common: Common,
+        /// Cell counts, comma separated (e.g. 5,10,20,40).
+        #[arg(long, value_delimiter = ',', required = true)]
+        cells: Vec<usize>,
+    },
+    /// List the built-in scenarios.
+    List,
+}
+
+#[derive(Args)]
+struct Common {
+    /// Scenario file (TOML), or the name of a built-in scenario (see `tlsmpm list`).
+    scenario: String,
+    /// Output directory [default: out/<scenario file stem>].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Override a scenario key, e.g. --set grid.cells=40 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Worker threads [default: one per core].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Run even if the time step exceeds the stability limit.
+    #[arg(long)]
+    force: bool,
+}
+
+impl Common {
+    /// Load the scenario (file, else built-in name) and its name (file stem).
+    fn load(&self) -> tlsmpm::Result<(Scenario, String)> {
+        let path = Path::new(&self.scenario);
+        if !path.exists() {
+            if let Some(b) = builtin::find(&self.scenario) {
+                return Ok((config::from_str(b.toml, b.name, &self.set)?, b.name.to_string()));
+            }
+        }
+        let scenario = config::load(path, &self.set)?;
+        let name = path
+            .file_stem()
+            .map_or_else(|| "scenario".to_string(), |s| s.to_string_lossy().into_owned());
+        Ok((scenario, name))
+    }
+
+    fn options(&self, name: &str) -> RunOptions {
+        RunOptions {
+            out_dir: self
+                .out
+                .clone()
+                .unwrap_or_else(|| Path::new("out").join(name)),
+            threads: self.threads,
+            force: self.force,
+        }
+    }
+}
+
+/// A progress bar on stderr that appears only after a second, and never when quiet or
+/// when stderr is not a terminal.
+struct Progress {
+    bar: ProgressBar,
+    start: Instant,
+    visible: bool,
+    enabled: bool,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Self {
+        let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
+        if let Ok(style) =
+            ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} steps, eta {eta}")
+        {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        Self {
+            bar,
+            start: Instant::now(),
+            visible: false,
+            enabled: !quiet && std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn update(&mut self, prefix: &str, step: usize, total: usize) {
+        if !self.enabled {
+            return;
+        }
+        if !self.visible && self.start.elapsed() > Duration::from_secs(1) {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+            self.visible = true;
+        }
+        self.bar.set_prefix(prefix.to_string());
+        self.bar.set_length(total as u64);
+        self.bar.set_position(step as u64);
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match execute(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            let code = err
+                .downcast_ref::<tlsmpm::Error>()
+                .map_or(1, tlsmpm::Error::exit_code);
+            eprintln!("error: {err:#}");
+            ExitCode::from(code as u8)
+        }
+    }
+}
+
+fn execute(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::List => {
+            for b in builtin::BUILTIN {
+                println!("{:<22} {}", b.name, b.description);
+            }
+            Ok(())
+        }
+        Command::Run { common } => {
+            let (scenario, name) = common.load()?;
+            let options = common.options(&name);
+            let mut progress = Progress::new(common.quiet);
+            let result = app::run(&scenario, &name, &options, &mut |step, total| {
+                progress.update("run", step, total)
+            });
+            progress.finish();
+            let summary = result?;
+            if !common.quiet {
+                print_summary(&summary, &options.out_dir);
+            }
+            Ok(())
+        }
+        Command::Study { common, cells } => {
+            let (scenario, name) = common.load()?;
+            let options = common.options(&name);
+            let mut progress = Progress::new(common.quiet);
+            let rows = app::study(&scenario, &name, &cells, &options, &mut |n, step, total| {
+                progress.update(&format!("{n} cells"), step, total)
+            });
+            progress.finish();
+            let rows = rows?;
+            print!("{}", app::study::format_table(&rows));
+            println!(
+                "wrote {}",
+                options.out_dir.join("study.csv").display()
+            );
+            Ok(())
+        }
+    }
+}
+
+fn print_summary(summary: &tlsmpm::output::Summary, out_dir: &Path) {
+    println!(
+        "{}: {} particles, {} cells, {} steps, {:.3} s on {} threads",
+        summary.scenario,
+        summary.n_particles,
+        summary.n_cells,
+        summary.n_steps,
+        summary.wall_seconds,
+        summary.threads
+    );
+    if let Some(errors) = &summary.errors {
+        for (field, rms) in &errors.rms {
+            let rel = errors.rel_l2.get(field).copied().unwrap_or(f64::NAN);
+            println!("  {field:<13} rms {rms:.4e}  rel L2 {rel:.4e}");
+        }
+    }
+    println!(
+        "  conservation: mass {:.3e}, momentum {:.3e}; grid crossings {}",
+        summary.conservation.max_rel_mass_error,
+        summary.conservation.max_rel_momentum_error,
+        summary.grid_crossings
+    );
+    println!("  wrote {}", out_dir.display());
+}

@@ -1,0 +1,615 @@
+//! Scenario files: the stable TOML keys of DESIGN §3, `--set KEY=VALUE` overrides with
+//! dotted keys, and validation.
+//!
+//! Parsing goes text → `toml::Table` → overrides applied → typed [`Scenario`]
+//! (`deny_unknown_fields` everywhere), so an unknown key is an error naming its full dotted
+//! path, whether it came from the file or from `--set`. [`Scenario::validate`] then checks
+//! ranges (positive sizes, moduli, time step) and names the key and value it rejects.
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A complete scenario (DESIGN §3).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub problem: ProblemConfig,
+    #[serde(default)]
+    pub material: MaterialConfig,
+    pub grid: GridConfig,
+    pub particles: ParticlesConfig,
+    #[serde(default)]
+    pub method: MethodConfig,
+    #[serde(default)]
+    pub solver: SolverConfig,
+    pub time: TimeConfig,
+    #[serde(default)]
+    pub output: OutputConfig,
+}
+
+/// The benchmark problems (SPEC §6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProblemKind {
+    /// SPEC §6.2 / §6.3.
+    VibratingBar,
+    /// SPEC §6.4.
+    ColumnCompaction,
+    /// SPEC §6.6 (two-phase; not available yet).
+    Consolidation,
+    /// SPEC §6.5 (neo-Hookean MMS bar; not available yet).
+    MmsBar,
+}
+
+/// `[problem]`: which benchmark and its own parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemConfig {
+    pub kind: ProblemKind,
+    /// Length (height) of the bar / column in m; default per problem.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// Vibrating bar: maximum initial velocity in m/s (default 0.28).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub v0: Option<f64>,
+    /// Column compaction: final signed body acceleration in m/s² (default -200).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f64>,
+}
+
+/// Constitutive models (SPEC §1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialModel {
+    /// Small strain, linear elastic: `dsigma = E deps`.
+    #[default]
+    Linear,
+    /// Large strain (Hill): `dsigma = (E - sigma) deps`.
+    Hill,
+    /// 1D neo-Hookean (not available yet).
+    NeoHookean,
+    /// Saturated two-phase soil (not available yet).
+    TwoPhase,
+}
+
+/// `[material]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialConfig {
+    #[serde(default)]
+    pub model: MaterialModel,
+    /// Initial density in kg/m³.
+    #[serde(default = "default_density")]
+    pub density: f64,
+    /// Young's modulus in Pa.
+    #[serde(default = "default_youngs_modulus")]
+    pub youngs_modulus: f64,
+}
+
+fn default_density() -> f64 {
+    2000.0
+}
+fn default_youngs_modulus() -> f64 {
+    7.0e6
+}
+
+impl Default for MaterialConfig {
+    fn default() -> Self {
+        Self {
+            model: MaterialModel::default(),
+            density: default_density(),
+            youngs_modulus: default_youngs_modulus(),
+        }
+    }
+}
+
+/// `[grid]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridConfig {
+    /// Number of cells (knot spans).
+    pub cells: usize,
+}
+
+/// `[particles]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesConfig {
+    /// Initial particles per cell, placed at the centres of equal sub-cells.
+    pub per_cell: usize,
+}
+
+/// Grid bases (SPEC §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BasisKind {
+    /// Piecewise-linear hat functions (standard MPM).
+    #[default]
+    Linear,
+    Ddmpm,
+    Bspline,
+    Gimp,
+    Cpdi,
+}
+
+/// Particle-to-grid reconstructions (SPEC §4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ReconstructionKind {
+    /// Direct particle quadrature (standard MPM).
+    #[default]
+    None,
+    Tls,
+    CubicSpline,
+    Mls,
+    Imls,
+}
+
+/// Mass matrix used to turn forces and momenta into accelerations and velocities.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MassKind {
+    /// Row-sum lumped (diagonal).
+    #[default]
+    Lumped,
+    Consistent,
+}
+
+/// Time-stepping schemes (SPEC §2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Scheme {
+    /// Modified update-stress-last: grid velocities from the updated particle velocities.
+    #[default]
+    Musl,
+    /// Update-stress-last: grid velocities straight from `v_i += dt a_i`.
+    Usl,
+}
+
+/// `[method]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MethodConfig {
+    #[serde(default)]
+    pub basis: BasisKind,
+    /// B-spline order p >= 1.
+    #[serde(default = "default_order")]
+    pub order: usize,
+    #[serde(default)]
+    pub reconstruction: ReconstructionKind,
+    #[serde(default)]
+    pub mass: MassKind,
+    #[serde(default)]
+    pub scheme: Scheme,
+    /// DDMPM sub-points per particle (0 = off).
+    #[serde(default)]
+    pub subpoints: usize,
+}
+
+fn default_order() -> usize {
+    2
+}
+
+impl Default for MethodConfig {
+    fn default() -> Self {
+        Self {
+            basis: BasisKind::default(),
+            order: default_order(),
+            reconstruction: ReconstructionKind::default(),
+            mass: MassKind::default(),
+            scheme: Scheme::default(),
+            subpoints: 0,
+        }
+    }
+}
+
+/// Linear solvers for the consistent mass matrix (SPEC §5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    #[default]
+    Cg,
+    Pcg,
+    Pmg,
+    Direct,
+    Banded,
+}
+
+/// Smoothers of the p-multigrid V-cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Smoother {
+    Jacobi,
+    #[default]
+    GaussSeidel,
+}
+
+/// `[solver]`: used when `method.mass = "consistent"`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverConfig {
+    #[serde(default)]
+    pub kind: SolverKind,
+    /// Relative residual `||r|| / ||r0||` at which iterative solvers stop.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    #[serde(default)]
+    pub smoother: Smoother,
+    #[serde(default = "default_smooth")]
+    pub pre_smooth: usize,
+    #[serde(default = "default_smooth")]
+    pub post_smooth: usize,
+}
+
+fn default_tolerance() -> f64 {
+    1e-8
+}
+fn default_smooth() -> usize {
+    8
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        Self {
+            kind: SolverKind::default(),
+            tolerance: default_tolerance(),
+            smoother: Smoother::default(),
+            pre_smooth: default_smooth(),
+            post_smooth: default_smooth(),
+        }
+    }
+}
+
+/// `[time]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeConfig {
+    /// Time step in s.
+    pub dt: f64,
+    /// End time in s; the run takes `round(end / dt)` steps.
+    pub end: f64,
+}
+
+/// At which time the exact velocity is evaluated for the error measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityReference {
+    /// `t - dt/2`: Euler–Cromer particle velocities are staggered half a step behind the
+    /// positions, so this removes the first-order time error (SPEC §6.2 measurement note).
+    #[default]
+    HalfStep,
+    /// `t`, the end of the last step.
+    End,
+}
+
+/// `[output]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputConfig {
+    /// Intermediate particle snapshots, evenly spread over the run (0 = final state only).
+    #[serde(default)]
+    pub snapshots: usize,
+    /// VTK output (not available yet).
+    #[serde(default)]
+    pub vtk: bool,
+    /// Write SVG plots.
+    #[serde(default = "default_true")]
+    pub plots: bool,
+    /// Time at which the exact velocity is evaluated.
+    #[serde(default)]
+    pub velocity_reference: VelocityReference,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        Self {
+            snapshots: 0,
+            vtk: false,
+            plots: true,
+            velocity_reference: VelocityReference::default(),
+        }
+    }
+}
+
+/// Read a scenario file and apply `KEY=VALUE` overrides.
+pub fn load(path: &Path, overrides: &[String]) -> Result<Scenario> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    from_str(&text, &path.display().to_string(), overrides)
+}
+
+/// Parse scenario text (`origin` names it in messages) and apply `KEY=VALUE` overrides.
+pub fn from_str(text: &str, origin: &str, overrides: &[String]) -> Result<Scenario> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| Error::Parse {
+        origin: origin.to_string(),
+        message: one_line(e.message()),
+    })?;
+    for assignment in overrides {
+        apply_override(&mut table, assignment)?;
+    }
+    let scenario: Scenario = serde_path_to_error::deserialize(toml::Value::Table(table))
+        .map_err(|e| schema_error(origin, e))?;
+    Ok(scenario)
+}
+
+fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+fn schema_error(origin: &str, e: serde_path_to_error::Error<toml::de::Error>) -> Error {
+    let path = e.path().to_string();
+    let message = one_line(e.inner().message());
+    if let Some(rest) = message.strip_prefix("unknown field `") {
+        let (field, hint) = rest.split_once('`').unwrap_or((rest, ""));
+        let key = if path == "." || path.is_empty() {
+            field.to_string()
+        } else {
+            // serde_path_to_error reports the path of the enclosing table.
+            let parent = path.trim_end_matches(&format!(".{field}"));
+            let parent = parent.trim_end_matches(field);
+            if parent.is_empty() || parent == "." {
+                field.to_string()
+            } else {
+                format!("{}.{field}", parent.trim_end_matches('.'))
+            }
+        };
+        return Error::UnknownKey {
+            key,
+            hint: format!(" in {origin}{}", hint.trim_start_matches(',')),
+        };
+    }
+    if let Some(rest) = message.strip_prefix("missing field `") {
+        let field = rest.split('`').next().unwrap_or(rest);
+        let key = if path == "." || path.is_empty() {
+            field.to_string()
+        } else {
+            format!("{path}.{field}")
+        };
+        return Error::Parse {
+            origin: origin.to_string(),
+            message: format!("missing key `{key}`"),
+        };
+    }
+    Error::Parse {
+        origin: origin.to_string(),
+        message: format!("`{path}`: {message}"),
+    }
+}
+
+/// Apply one `KEY=VALUE` override; `VALUE` is read as a TOML value (number, boolean,
+/// quoted string, array) and, failing that, as a bare string (`method.basis=bspline`).
+pub fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<()> {
+    let (key, raw) = assignment
+        .split_once('=')
+        .ok_or_else(|| Error::invalid("--set", assignment, "expected KEY=VALUE"))?;
+    let key = key.trim();
+    let raw = raw.trim();
+    if key.is_empty() || key.split('.').any(str::is_empty) {
+        return Err(Error::invalid("--set", assignment, "empty key"));
+    }
+    let value = match toml::from_str::<toml::Table>(&format!("value = {raw}")) {
+        Ok(mut parsed) => parsed
+            .remove("value")
+            .unwrap_or_else(|| toml::Value::String(raw.to_string())),
+        Err(_) => toml::Value::String(raw.to_string()),
+    };
+    let mut parts: Vec<&str> = key.split('.').collect();
+    let last = parts.pop().unwrap_or(key);
+    let mut current = table;
+    let mut walked = String::new();
+    for part in parts {
+        if !walked.is_empty() {
+            walked.push('.');
+        }
+        walked.push_str(part);
+        let entry = current
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        current = entry
+            .as_table_mut()
+            .ok_or_else(|| Error::invalid(key, raw, format!("`{walked}` is not a table")))?;
+    }
+    current.insert(last.to_string(), value);
+    Ok(())
+}
+
+/// `Err` naming `key` unless `value` is finite and strictly positive.
+pub fn require_positive(key: &str, value: f64) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid(key, value, "must be a positive finite number"))
+    }
+}
+
+impl Scenario {
+    /// Number of time steps, `round(end / dt)`.
+    pub fn n_steps(&self) -> usize {
+        (self.time.end / self.time.dt).round() as usize
+    }
+
+    /// Range checks that do not depend on the problem; problem-specific keys are checked
+    /// when the problem is built. Returns the first violation.
+    pub fn validate(&self) -> Result<()> {
+        if self.grid.cells == 0 {
+            return Err(Error::invalid("grid.cells", 0, "must be at least 1"));
+        }
+        if self.particles.per_cell == 0 {
+            return Err(Error::invalid("particles.per_cell", 0, "must be at least 1"));
+        }
+        require_positive("material.density", self.material.density)?;
+        require_positive("material.youngs_modulus", self.material.youngs_modulus)?;
+        require_positive("time.dt", self.time.dt)?;
+        require_positive("time.end", self.time.end)?;
+        if self.n_steps() == 0 {
+            return Err(Error::invalid(
+                "time.end",
+                self.time.end,
+                format!("shorter than half a time step (time.dt = {})", self.time.dt),
+            ));
+        }
+        require_positive("solver.tolerance", self.solver.tolerance)?;
+        if let Some(length) = self.problem.length {
+            require_positive("problem.length", length)?;
+        }
+        if self.method.basis == BasisKind::Bspline && self.method.order == 0 {
+            return Err(Error::invalid("method.order", 0, "B-spline order must be >= 1"));
+        }
+        self.check_available()
+    }
+
+    /// Reject the documented keys whose methods are not implemented in this version, with
+    /// a message naming the key (never a silent fallback).
+    fn check_available(&self) -> Result<()> {
+        let not_yet = |key: &str, value: &str| {
+            Err(Error::invalid(
+                key,
+                format!("\"{value}\""),
+                "not available in this version of tlsmpm",
+            ))
+        };
+        match self.problem.kind {
+            ProblemKind::Consolidation => return not_yet("problem.kind", "consolidation"),
+            ProblemKind::MmsBar => return not_yet("problem.kind", "mms_bar"),
+            _ => {}
+        }
+        match self.material.model {
+            MaterialModel::NeoHookean => return not_yet("material.model", "neo_hookean"),
+            MaterialModel::TwoPhase => return not_yet("material.model", "two_phase"),
+            _ => {}
+        }
+        match self.method.basis {
+            BasisKind::Linear => {}
+            BasisKind::Ddmpm => return not_yet("method.basis", "ddmpm"),
+            BasisKind::Bspline => return not_yet("method.basis", "bspline"),
+            BasisKind::Gimp => return not_yet("method.basis", "gimp"),
+            BasisKind::Cpdi => return not_yet("method.basis", "cpdi"),
+        }
+        match self.method.reconstruction {
+            ReconstructionKind::None => {}
+            ReconstructionKind::Tls => return not_yet("method.reconstruction", "tls"),
+            ReconstructionKind::CubicSpline => {
+                return not_yet("method.reconstruction", "cubic_spline")
+            }
+            ReconstructionKind::Mls => return not_yet("method.reconstruction", "mls"),
+            ReconstructionKind::Imls => return not_yet("method.reconstruction", "imls"),
+        }
+        if self.method.mass == MassKind::Consistent {
+            return not_yet("method.mass", "consistent");
+        }
+        if self.method.subpoints != 0 {
+            return Err(Error::invalid(
+                "method.subpoints",
+                self.method.subpoints,
+                "DDMPM sub-points are not available in this version of tlsmpm",
+            ));
+        }
+        if self.output.vtk {
+            return Err(Error::invalid(
+                "output.vtk",
+                true,
+                "VTK output is not available in this version of tlsmpm",
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BAR: &str = r#"
+[problem]
+kind = "vibrating_bar"
+[grid]
+cells = 20
+[particles]
+per_cell = 12
+[time]
+dt = 1e-7
+end = 1.9e-6
+"#;
+
+    #[test]
+    fn defaults_and_steps() {
+        let s = from_str(BAR, "bar", &[]).unwrap();
+        assert_eq!(s.grid.cells, 20);
+        assert_eq!(s.material.model, MaterialModel::Linear);
+        assert_eq!(s.method.scheme, Scheme::Musl);
+        assert_eq!(s.n_steps(), 19);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn overrides_use_dotted_keys_and_toml_values() {
+        let o = [
+            "grid.cells=40".to_string(),
+            "method.scheme=usl".to_string(),
+            "time.dt=1e-8".to_string(),
+            "problem.v0=1".to_string(),
+        ];
+        let s = from_str(BAR, "bar", &o).unwrap();
+        assert_eq!(s.grid.cells, 40);
+        assert_eq!(s.method.scheme, Scheme::Usl);
+        assert_eq!(s.time.dt, 1e-8);
+        assert_eq!(s.problem.v0, Some(1.0));
+    }
+
+    #[test]
+    fn unknown_keys_name_their_dotted_path() {
+        let err = from_str(BAR, "bar", &["grid.celss=3".to_string()]).unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownKey { key, .. } if key == "grid.celss"),
+            "{err}"
+        );
+        let err = from_str(BAR, "bar", &["solvr.kind=cg".to_string()]).unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownKey { key, .. } if key == "solvr"),
+            "{err}"
+        );
+        let text = format!("{BAR}\n[material]\nyoung = 3.0\n");
+        let err = from_str(&text, "bar", &[]).unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownKey { key, .. } if key == "material.young"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn invalid_values_name_the_key() {
+        for (set, key) in [
+            ("grid.cells=0", "grid.cells"),
+            ("particles.per_cell=0", "particles.per_cell"),
+            ("material.density=-1", "material.density"),
+            ("material.youngs_modulus=0", "material.youngs_modulus"),
+            ("time.dt=0", "time.dt"),
+            ("time.dt=nan", "time.dt"),
+        ] {
+            let err = from_str(BAR, "bar", &[set.to_string()])
+                .and_then(|s| s.validate())
+                .unwrap_err();
+            assert!(err.to_string().contains(key), "{set}: {err}");
+            assert!(err.is_input_error());
+        }
+    }
+
+    #[test]
+    fn wrong_types_and_bad_overrides_are_errors() {
+        let err = from_str(BAR, "bar", &["grid.cells=-5".to_string()]).unwrap_err();
+        assert!(err.to_string().contains("grid.cells"), "{err}");
+        let err = from_str(BAR, "bar", &["grid.cells".to_string()]).unwrap_err();
+        assert!(err.to_string().contains("KEY=VALUE"), "{err}");
+        let err = from_str(BAR, "bar", &["grid.cells.x=1".to_string()]).unwrap_err();
+        assert!(err.to_string().contains("not a table"), "{err}");
+        let err = from_str("[problem\nkind=1", "bad", &[]).unwrap_err();
+        assert!(matches!(err, Error::Parse { .. }));
+    }
+}

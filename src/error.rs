@@ -1,0 +1,105 @@
+//! The one error type of the library.
+//!
+//! Three families, mapped to exit codes by the binary (DESIGN §2):
+//! * input errors (unreadable file, invalid TOML, unknown key, invalid value, unstable time
+//!   step) → exit code 2, with a message that names the offending key and value;
+//! * numerical failures (NaN/infinity, solver breakdown or divergence) → exit code 1, after
+//!   the caller has written what was computed so far;
+//! * output errors (cannot write a result file) → exit code 1.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout the crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong in `tlsmpm`.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A scenario or input file could not be read.
+    #[error("cannot read {path}: {source}")]
+    ReadInput {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The scenario text is not valid TOML, or does not match the scenario schema.
+    #[error("invalid scenario {origin}: {message}")]
+    Parse { origin: String, message: String },
+    /// A scenario key that does not exist.
+    #[error("unknown key `{key}`{hint}")]
+    UnknownKey { key: String, hint: String },
+    /// A key with a value outside its valid range.
+    #[error("invalid value for `{key}` = {value}: {reason}")]
+    InvalidValue {
+        key: String,
+        value: String,
+        reason: String,
+    },
+    /// The time step is above the stability limit (override with `--force`).
+    #[error(
+        "`time.dt` = {dt:e} exceeds the stability limit {limit:e} s (h / c); use --force to run anyway"
+    )]
+    UnstableTimeStep { dt: f64, limit: f64 },
+    /// A NaN or infinite value appeared during the run.
+    #[error("non-finite {field} at step {step} (t = {time:e} s)")]
+    NonFinite {
+        field: &'static str,
+        step: usize,
+        time: f64,
+    },
+    /// A particle moved outside the background grid.
+    #[error("particle {particle} left the grid (x = {x:e}) at step {step} (t = {time:e} s)")]
+    LeftGrid {
+        particle: usize,
+        x: f64,
+        step: usize,
+        time: f64,
+    },
+    /// A linear solver broke down or did not converge.
+    #[error("linear solver `{solver}` failed: {reason}")]
+    Solver { solver: String, reason: String },
+    /// A result file could not be written.
+    #[error("cannot write {path}: {reason}")]
+    WriteOutput { path: PathBuf, reason: String },
+}
+
+impl Error {
+    /// Shorthand for [`Error::InvalidValue`].
+    pub fn invalid(key: &str, value: impl std::fmt::Display, reason: impl Into<String>) -> Self {
+        Error::InvalidValue {
+            key: key.to_string(),
+            value: value.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    /// `true` for errors caused by the user's input (exit code 2), `false` for numerical
+    /// or output failures (exit code 1).
+    pub fn is_input_error(&self) -> bool {
+        matches!(
+            self,
+            Error::ReadInput { .. }
+                | Error::Parse { .. }
+                | Error::UnknownKey { .. }
+                | Error::InvalidValue { .. }
+                | Error::UnstableTimeStep { .. }
+        )
+    }
+
+    /// Process exit code for this error (DESIGN §2).
+    pub fn exit_code(&self) -> i32 {
+        if self.is_input_error() {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Shorthand for [`Error::WriteOutput`].
+    pub fn write(path: &std::path::Path, reason: impl std::fmt::Display) -> Self {
+        Error::WriteOutput {
+            path: path.to_path_buf(),
+            reason: reason.to_string(),
+        }
+    }
+}

@@ -1,0 +1,76 @@
+//! The [`Basis`] trait: the grid functions `phi_i` and the gradients used for internal
+//! forces and strains (SPEC §3).
+//!
+//! A basis evaluates, for a point in a given cell, all its non-zero functions at once into a
+//! stack-allocated [`Shape`] (no allocation per particle). Kernels are generic over the
+//! basis, so the evaluation is monomorphised and inlined in the particle loops.
+
+/// Most non-zero functions a basis may have at one point (B-splines up to order 15).
+pub const MAX_SUPPORT: usize = 16;
+
+/// The non-zero grid functions at one point: `phi[k]`, `dphi[k]` belong to DOF `first + k`,
+/// `k < len`.
+#[derive(Clone, Copy, Debug)]
+pub struct Shape {
+    pub first: usize,
+    pub len: usize,
+    pub phi: [f64; MAX_SUPPORT],
+    pub dphi: [f64; MAX_SUPPORT],
+}
+
+impl Default for Shape {
+    fn default() -> Self {
+        Self {
+            first: 0,
+            len: 0,
+            phi: [0.0; MAX_SUPPORT],
+            dphi: [0.0; MAX_SUPPORT],
+        }
+    }
+}
+
+impl Shape {
+    /// `sum_k phi_k g[first + k]`: interpolate a grid field.
+    #[inline]
+    pub fn interpolate(&self, grid_field: &[f64]) -> f64 {
+        let g = &grid_field[self.first..self.first + self.len];
+        self.phi[..self.len].iter().zip(g).map(|(p, v)| p * v).sum()
+    }
+
+    /// `sum_k dphi_k g[first + k]`: the gradient of a grid field.
+    #[inline]
+    pub fn gradient(&self, grid_field: &[f64]) -> f64 {
+        let g = &grid_field[self.first..self.first + self.len];
+        self.dphi[..self.len].iter().zip(g).map(|(p, v)| p * v).sum()
+    }
+}
+
+/// Grid functions on a 1D background grid.
+pub trait Basis: Sync + Send {
+    /// Name as in the scenario key `method.basis`.
+    fn name(&self) -> &'static str;
+
+    /// Number of grid DOFs `N_n`.
+    fn num_dofs(&self) -> usize;
+
+    /// The DOF window `(first, len)` that any point of cell `cell` can touch; per-cell
+    /// scatter buffers have this size.
+    fn cell_window(&self, cell: usize) -> (usize, usize);
+
+    /// The largest `len` of any [`Basis::cell_window`].
+    fn max_window(&self) -> usize;
+
+    /// Evaluate the non-zero functions and gradients at `x`, which lies in cell `cell`.
+    fn eval(&self, cell: usize, x: f64, shape: &mut Shape);
+
+    /// The DOFs on the left and right ends of the domain (for Dirichlet conditions).
+    fn boundary_dofs(&self) -> (usize, usize) {
+        (0, self.num_dofs() - 1)
+    }
+
+    /// Ratio of the critical time step of this basis to `h / c` of linear elements with a
+    /// lumped mass matrix.
+    fn stability_factor(&self) -> f64 {
+        1.0
+    }
+}

@@ -1,0 +1,57 @@
+//! The background grid and its bases (SPEC §3).
+//!
+//! [`Grid`] is the uniform 1D mesh of `N_e` cells (knot spans) on `[origin, origin + L]`;
+//! [`Basis`] is the plug point for the grid functions (linear hats now; DDMPM gradients,
+//! B-splines of any order, GIMP and CPDI implement the same trait).
+
+pub mod basis;
+pub mod linear;
+
+pub use basis::{Basis, Shape, MAX_SUPPORT};
+pub use linear::LinearBasis;
+
+/// A uniform 1D grid of `cells` cells of size `h` starting at `origin`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grid {
+    pub origin: f64,
+    pub length: f64,
+    pub cells: usize,
+    /// Cell size `h = length / cells`.
+    pub h: f64,
+}
+
+impl Grid {
+    /// A grid of `cells` equal cells on `[0, length]`.
+    pub fn new(length: f64, cells: usize) -> Self {
+        Self {
+            origin: 0.0,
+            length,
+            cells,
+            h: length / cells as f64,
+        }
+    }
+
+    /// Left end of cell `cell`.
+    #[inline]
+    pub fn cell_left(&self, cell: usize) -> f64 {
+        self.origin + cell as f64 * self.h
+    }
+
+    /// The cell containing `x`, or `None` outside `[origin, origin + length]`. The right end
+    /// belongs to the last cell; a point on an interior face belongs to the cell on its right.
+    ///
+    /// ```
+    /// let g = tlsmpm::grid::Grid::new(1.0, 4);
+    /// assert_eq!(g.cell_of(0.3), Some(1));
+    /// assert_eq!(g.cell_of(1.0), Some(3));
+    /// assert_eq!(g.cell_of(1.1), None);
+    /// ```
+    #[inline]
+    pub fn cell_of(&self, x: f64) -> Option<usize> {
+        let xi = (x - self.origin) / self.h;
+        if !(xi >= 0.0 && xi <= self.cells as f64) {
+            return None;
+        }
+        Some((xi as usize).min(self.cells - 1))
+    }
+}

@@ -1,0 +1,33 @@
+//! Linear algebra for mass-matrix solves (SPEC §5): a compressed-sparse-row matrix, the
+//! [`LinearSolver`] trait every solver implements, and conjugate gradients.
+//!
+//! Shape of the API (after faer): a solver is built once and then called every step; the
+//! initial content of `x` is the starting guess (warm start from the previous step), and
+//! every call returns [`SolveStats`] instead of panicking on breakdown.
+
+pub mod cg;
+pub mod csr;
+
+pub use cg::ConjugateGradient;
+pub use csr::CsrMatrix;
+
+use crate::error::Result;
+
+/// What a solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveStats {
+    /// Iterations (CG steps, V-cycles, ...); 0 for direct solves.
+    pub iterations: usize,
+    /// Final `||b - A x|| / ||b - A x_0||` (0 when the initial residual was already 0).
+    pub relative_residual: f64,
+}
+
+/// A solver for the symmetric positive definite systems `A x = b` of the consistent mass
+/// matrix.
+pub trait LinearSolver: Send {
+    /// Short name, as in the scenario key `solver.kind`.
+    fn name(&self) -> &'static str;
+
+    /// Solve `a x = b`. On entry `x` holds the initial guess; on exit, the solution.
+    fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats>;
+}

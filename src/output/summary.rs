@@ -1,0 +1,67 @@
+//! `summary.json` (DESIGN §4).
+
+use super::write_atomic;
+use crate::config::Scenario;
+use crate::error::{Error, Result};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Error norms per field name (`displacement`, `velocity`, `stress`).
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct Errors {
+    pub rms: BTreeMap<String, f64>,
+    pub rel_l2: BTreeMap<String, f64>,
+}
+
+/// Maximum conservation errors of the mapping over the run.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+pub struct Conservation {
+    pub max_rel_mass_error: f64,
+    pub max_rel_momentum_error: f64,
+}
+
+/// Linear-solver statistics (`kind = "lumped"` for the diagonal mass matrix).
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct SolverSummary {
+    pub kind: String,
+    pub total_iterations: usize,
+    pub max_iterations: usize,
+}
+
+/// Everything `summary.json` holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// Scenario name (file stem).
+    pub scenario: String,
+    /// `"completed"` or `"failed"`.
+    pub status: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
+    pub problem: String,
+    pub basis: String,
+    pub reconstruction: String,
+    pub n_particles: usize,
+    pub n_cells: usize,
+    /// Steps completed.
+    pub n_steps: usize,
+    /// Time reached.
+    pub time: f64,
+    pub threads: usize,
+    pub wall_seconds: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub errors: Option<Errors>,
+    pub conservation: Conservation,
+    pub grid_crossings: usize,
+    pub solver: SolverSummary,
+    /// The resolved scenario (file + `--set` overrides + defaults).
+    pub config: Scenario,
+}
+
+impl Summary {
+    /// Write as pretty JSON.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string_pretty(self).map_err(|e| Error::write(path, e))?;
+        write_atomic(path, text.as_bytes())
+    }
+}

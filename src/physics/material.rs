@@ -1,0 +1,138 @@
+//! One-dimensional constitutive laws (SPEC §1.1), as stress updates from a strain
+//! increment `deps = dphi^T du`:
+//!
+//! * small strain, linear elastic: `sigma += E deps`;
+//! * large strain (Hill): `sigma += (E - sigma) deps`, the rate form of
+//!   `d sigma / dt = (E - sigma) dv/dx`, whose exact integral is `J = E / (E - sigma)`.
+
+use crate::config::{MaterialConfig, MaterialModel};
+
+/// A stress update `sigma_new = update(sigma, deps)`, monomorphised into particle loops.
+pub trait ConstitutiveLaw: Copy + Send + Sync {
+    /// New stress from the old stress and the strain increment.
+    fn update(&self, stress: f64, strain_increment: f64) -> f64;
+    /// Stored energy per unit volume at stress `stress` (for `history.csv`).
+    fn strain_energy_density(&self, stress: f64) -> f64;
+    /// The modulus that sets the wave speed `c = sqrt(modulus / rho)` (stability limit).
+    fn wave_modulus(&self) -> f64;
+}
+
+/// Small-strain linear elasticity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinearElastic {
+    pub youngs_modulus: f64,
+}
+
+impl ConstitutiveLaw for LinearElastic {
+    #[inline]
+    fn update(&self, stress: f64, strain_increment: f64) -> f64 {
+        stress + self.youngs_modulus * strain_increment
+    }
+    fn strain_energy_density(&self, stress: f64) -> f64 {
+        0.5 * stress * stress / self.youngs_modulus
+    }
+    fn wave_modulus(&self) -> f64 {
+        self.youngs_modulus
+    }
+}
+
+/// Hill's large-strain law.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hill {
+    pub youngs_modulus: f64,
+}
+
+impl ConstitutiveLaw for Hill {
+    #[inline]
+    fn update(&self, stress: f64, strain_increment: f64) -> f64 {
+        stress + (self.youngs_modulus - stress) * strain_increment
+    }
+    /// `int sigma d(ln J)` with `J = E / (E - sigma)`: `-sigma - E ln(1 - sigma / E)`.
+    fn strain_energy_density(&self, stress: f64) -> f64 {
+        let e = self.youngs_modulus;
+        let s = stress / e;
+        if s.abs() < 1e-3 {
+            // E (s^2/2 + s^3/3 + s^4/4 + ...), free of cancellation.
+            e * s * s * (0.5 + s * (1.0 / 3.0 + s * (0.25 + s * 0.2)))
+        } else {
+            e * (-s - (-s).ln_1p())
+        }
+    }
+    fn wave_modulus(&self) -> f64 {
+        self.youngs_modulus
+    }
+}
+
+/// The one-phase materials, dispatched once per step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    Linear(LinearElastic),
+    Hill(Hill),
+}
+
+impl Material {
+    /// Build from `[material]`; only the one-phase elastic models are accepted (validated
+    /// earlier by [`crate::config::Scenario::validate`]).
+    pub fn from_config(config: &MaterialConfig) -> Option<Self> {
+        match config.model {
+            MaterialModel::Linear => Some(Material::Linear(LinearElastic {
+                youngs_modulus: config.youngs_modulus,
+            })),
+            MaterialModel::Hill => Some(Material::Hill(Hill {
+                youngs_modulus: config.youngs_modulus,
+            })),
+            MaterialModel::NeoHookean | MaterialModel::TwoPhase => None,
+        }
+    }
+
+    /// The modulus of the wave speed.
+    pub fn wave_modulus(&self) -> f64 {
+        match self {
+            Material::Linear(l) => l.wave_modulus(),
+            Material::Hill(l) => l.wave_modulus(),
+        }
+    }
+
+    /// Stored energy per unit volume.
+    pub fn strain_energy_density(&self, stress: f64) -> f64 {
+        match self {
+            Material::Linear(l) => l.strain_energy_density(stress),
+            Material::Hill(l) => l.strain_energy_density(stress),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hill_integrates_to_its_closed_form() {
+        // Uniaxial stretch J in N equal log-strain increments: sigma -> E (1 - 1/J).
+        let law = Hill {
+            youngs_modulus: 1e6,
+        };
+        let j: f64 = 0.8;
+        let n = 200_000;
+        let deps = (j.ln() / n as f64).exp() - 1.0;
+        let mut sigma = 0.0;
+        for _ in 0..n {
+            sigma = law.update(sigma, deps);
+        }
+        let exact = 1e6 * (1.0 - 1.0 / j);
+        assert!((sigma - exact).abs() < 1e-3 * exact.abs(), "{sigma} vs {exact}");
+        for sigma in [-1e4, -1e-3, 1e-6, 2e3] {
+            let w = law.strain_energy_density(sigma);
+            assert!(w > 0.0 && (w - sigma * sigma / 2e6).abs() < 0.02 * w, "{sigma}: {w}");
+        }
+    }
+
+    #[test]
+    fn linear_is_linear() {
+        let law = LinearElastic {
+            youngs_modulus: 7e6,
+        };
+        assert_eq!(law.update(1.0, 1e-6), 1.0 + 7.0);
+        assert_eq!(law.strain_energy_density(7e6 * 1e-3), 0.5 * 7e6 * 1e-6);
+    }
+}

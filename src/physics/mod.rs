@@ -1,0 +1,12 @@
+//! Physics: constitutive laws (SPEC §1.1), boundary conditions, the one-phase MUSL/USL
+//! Euler–Cromer step (SPEC §2) and the time loop with its diagnostics.
+
+pub mod boundary;
+pub mod material;
+pub mod simulation;
+pub mod step;
+
+pub use boundary::Boundary;
+pub use material::{ConstitutiveLaw, Hill, LinearElastic, Material};
+pub use simulation::{HistoryRow, Simulation};
+pub use step::{StepReport, Stepper};

@@ -1,0 +1,367 @@
+//! The one-phase Euler–Cromer step (SPEC §2), MUSL (default) or USL.
+//!
+//! ```text
+//! 1. m_i, f_int_i by the mapping; f_ext_i = b m_i + tractions
+//! 2. a_i = (f_ext_i - f_int_i) / m_i;            a_i = 0 on fixed DOFs
+//! 3. v_p += dt sum_i phi_i(x_p) a_i
+//! 4. MUSL: v_i = (sum_p m_p phi_i(x_p) v_p) / m_i  (updated v_p)
+//!    USL:  v_i = (sum_p m_p phi_i(x_p) v_p^old) / m_i + dt a_i;   v_i = 0 on fixed DOFs
+//! 5. du_i = dt v_i
+//! 6. u_p += phi^T du, x_p += phi^T du, deps_p = dphi^T du
+//! 7. sigma_p = law(sigma_p, deps_p)
+//! 8. V_p *= 1 + deps_p, rho_p /= 1 + deps_p
+//! ```
+//! then the particles are re-binned (counting sort) and grid crossings counted. The
+//! conservation errors of the mapping are measured each step (SPEC §6): mass
+//! `|sum_i m_i - sum_p m_p| / sum_p m_p` after step 1, momentum
+//! `|sum_i m_i v_i - sum_p m_p v_p| / sum_p m_p |v_p|` after step 4 (before the Dirichlet
+//! conditions are applied).
+
+use crate::config::Scheme;
+use crate::error::{Error, Result};
+use crate::grid::{Basis, Grid, Shape};
+use crate::mapping::{GridFields, Mapping};
+use crate::numerics::sum::deterministic_sum;
+use crate::particles::{CellBins, Particles};
+use crate::physics::{Boundary, ConstitutiveLaw, Material};
+use rayon::prelude::*;
+
+/// Particles per rayon task in particle loops.
+const PARTICLES_PER_TASK: usize = 2048;
+
+/// Diagnostics of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Relative mass error of the mapping.
+    pub mass_error: f64,
+    /// Relative momentum error of the mapping (`None` when all particles are at rest).
+    pub momentum_error: Option<f64>,
+    /// Particles that changed cell in this step.
+    pub crossings: usize,
+}
+
+/// The time stepper, generic over the basis and the mapping (monomorphised kernels).
+pub struct Stepper<B: Basis, M: Mapping> {
+    pub grid: Grid,
+    pub basis: B,
+    pub mapping: M,
+    pub material: Material,
+    pub scheme: Scheme,
+    pub boundary: Boundary,
+    pub dt: f64,
+    pub fields: GridFields,
+    pub bins: CellBins,
+    total_mass: f64,
+}
+
+impl<B: Basis, M: Mapping> Stepper<B, M> {
+    /// A stepper for `particles`, which are binned (sorted by cell) here.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        grid: Grid,
+        basis: B,
+        mapping: M,
+        material: Material,
+        scheme: Scheme,
+        boundary: Boundary,
+        dt: f64,
+        particles: &mut Particles,
+    ) -> Self {
+        let mut bins = CellBins::default();
+        bins.sort(particles, grid.cells);
+        let total_mass = deterministic_sum(particles.len(), |p| particles.mass[p]);
+        let fields = GridFields::new(basis.num_dofs());
+        Self {
+            grid,
+            basis,
+            mapping,
+            material,
+            scheme,
+            boundary,
+            dt,
+            fields,
+            bins,
+            total_mass,
+        }
+    }
+
+    /// Advance by one time step with body acceleration `body_acceleration`. `step` and
+    /// `time` (end of the step) only label failures.
+    pub fn step(
+        &mut self,
+        particles: &mut Particles,
+        body_acceleration: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<StepReport> {
+        let dt = self.dt;
+        let ends = self.basis.boundary_dofs();
+        let fields = &mut self.fields;
+
+        // 1. Mass, internal and external force.
+        self.mapping.map_mass_and_internal_force(
+            &self.basis,
+            particles,
+            &self.bins,
+            fields,
+        );
+        let grid_mass: f64 = fields.mass.iter().sum();
+        let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
+        for (f, m) in fields.external_force.iter_mut().zip(&fields.mass) {
+            *f = body_acceleration * m;
+        }
+        self.boundary.add_tractions(ends, &mut fields.external_force);
+        if self.scheme == Scheme::Usl {
+            self.mapping
+                .map_momentum(&self.basis, particles, &self.bins, fields);
+        }
+
+        // 2. Accelerations.
+        for i in 0..fields.mass.len() {
+            let m = fields.mass[i];
+            fields.acceleration[i] = if m > 0.0 {
+                (fields.external_force[i] - fields.internal_force[i]) / m
+            } else {
+                0.0
+            };
+        }
+        self.boundary.zero_fixed(ends, &mut fields.acceleration);
+
+        // 3. Particle velocities (and, for MUSL, the momentum they carry).
+        let momentum_error = match self.scheme {
+            Scheme::Musl => {
+                update_particle_velocities(&self.basis, particles, &fields.acceleration, dt);
+                self.mapping
+                    .map_momentum(&self.basis, particles, &self.bins, fields);
+                let error = momentum_error(particles, fields);
+                grid_velocity_from_momentum(fields, 0.0);
+                error
+            }
+            Scheme::Usl => {
+                let error = momentum_error(particles, fields);
+                grid_velocity_from_momentum(fields, dt);
+                update_particle_velocities(&self.basis, particles, &fields.acceleration, dt);
+                error
+            }
+        };
+        self.boundary.zero_fixed(ends, &mut fields.velocity);
+
+        // 5.-8. Kinematics and stress, dispatched once on the material law.
+        let outcome = match self.material {
+            Material::Linear(law) => {
+                update_particles(&self.basis, &self.grid, particles, &fields.velocity, dt, law)
+            }
+            Material::Hill(law) => {
+                update_particles(&self.basis, &self.grid, particles, &fields.velocity, dt, law)
+            }
+        };
+        if let Some((particle, failure)) = outcome.failure {
+            let field = match failure {
+                Failure::Velocity => "velocity",
+                Failure::Stress => "stress",
+                Failure::Position => "position",
+                Failure::LeftGrid => {
+                    return Err(Error::LeftGrid {
+                        particle: particles.id[particle],
+                        x: particles.x[particle],
+                        step,
+                        time,
+                    })
+                }
+            };
+            return Err(Error::NonFinite { field, step, time });
+        }
+        if !mass_error.is_finite() {
+            return Err(Error::NonFinite {
+                field: "grid mass",
+                step,
+                time,
+            });
+        }
+        self.bins.sort(particles, self.grid.cells);
+        Ok(StepReport {
+            mass_error,
+            momentum_error,
+            crossings: outcome.crossings,
+        })
+    }
+}
+
+/// `|sum_i m_i v_i - sum_p m_p v_p| / sum_p m_p |v_p|` with `v_i = p_i / m_i`.
+fn momentum_error(particles: &Particles, fields: &GridFields) -> Option<f64> {
+    let n = particles.len();
+    let (m, v) = (&particles.mass, &particles.v);
+    let particle_momentum = deterministic_sum(n, |p| m[p] * v[p]);
+    let scale = deterministic_sum(n, |p| m[p] * v[p].abs());
+    let grid_momentum: f64 = fields
+        .momentum
+        .iter()
+        .zip(&fields.mass)
+        .map(|(&p, &m)| if m > 0.0 { m * (p / m) } else { 0.0 })
+        .sum();
+    (scale > 0.0).then(|| (grid_momentum - particle_momentum).abs() / scale)
+}
+
+/// `v_i = p_i / m_i + dt_accel a_i` (0 on empty DOFs).
+fn grid_velocity_from_momentum(fields: &mut GridFields, dt_accel: f64) {
+    for i in 0..fields.mass.len() {
+        let m = fields.mass[i];
+        fields.velocity[i] = if m > 0.0 {
+            fields.momentum[i] / m + dt_accel * fields.acceleration[i]
+        } else {
+            0.0
+        };
+    }
+}
+
+/// Step 3: `v_p += dt phi^T(x_p) a`.
+fn update_particle_velocities<B: Basis>(
+    basis: &B,
+    particles: &mut Particles,
+    acceleration: &[f64],
+    dt: f64,
+) {
+    let (x, cell) = (&particles.x, &particles.cell);
+    particles
+        .v
+        .par_chunks_mut(PARTICLES_PER_TASK)
+        .enumerate()
+        .for_each(|(chunk, v)| {
+            let start = chunk * PARTICLES_PER_TASK;
+            let mut shape = Shape::default();
+            for (k, v) in v.iter_mut().enumerate() {
+                let p = start + k;
+                basis.eval(cell[p], x[p], &mut shape);
+                *v += dt * shape.interpolate(acceleration);
+            }
+        });
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Failure {
+    Velocity,
+    Stress,
+    Position,
+    LeftGrid,
+}
+
+struct UpdateOutcome {
+    crossings: usize,
+    /// First failing particle (lowest index) and what failed.
+    failure: Option<(usize, Failure)>,
+}
+
+/// Steps 5–8 and the new cell of every particle.
+fn update_particles<B: Basis, L: ConstitutiveLaw>(
+    basis: &B,
+    grid: &Grid,
+    particles: &mut Particles,
+    velocity: &[f64],
+    dt: f64,
+    law: L,
+) -> UpdateOutcome {
+    let v = &particles.v;
+    let chunks = (
+        particles.x.par_chunks_mut(PARTICLES_PER_TASK),
+        particles.u.par_chunks_mut(PARTICLES_PER_TASK),
+        particles.stress.par_chunks_mut(PARTICLES_PER_TASK),
+        particles.volume.par_chunks_mut(PARTICLES_PER_TASK),
+        particles.density.par_chunks_mut(PARTICLES_PER_TASK),
+        particles.cell.par_chunks_mut(PARTICLES_PER_TASK),
+    );
+    let (crossings, failure) = chunks
+        .into_par_iter()
+        .enumerate()
+        .map(|(chunk, (x, u, stress, volume, density, cell))| {
+            let start = chunk * PARTICLES_PER_TASK;
+            let mut shape = Shape::default();
+            let mut crossings = 0usize;
+            let mut failure = None;
+            for k in 0..x.len() {
+                basis.eval(cell[k], x[k], &mut shape);
+                let du = dt * shape.interpolate(velocity);
+                let deps = dt * shape.gradient(velocity);
+                u[k] += du;
+                x[k] += du;
+                stress[k] = law.update(stress[k], deps);
+                volume[k] *= 1.0 + deps;
+                density[k] /= 1.0 + deps;
+                let bad = if !v[start + k].is_finite() {
+                    Some(Failure::Velocity)
+                } else if !stress[k].is_finite() {
+                    Some(Failure::Stress)
+                } else if !x[k].is_finite() {
+                    Some(Failure::Position)
+                } else {
+                    None
+                };
+                match grid.cell_of(x[k]) {
+                    Some(c) if bad.is_none() => {
+                        crossings += usize::from(c != cell[k]);
+                        cell[k] = c;
+                    }
+                    None if bad.is_none() => {
+                        failure = failure.or(Some((start + k, Failure::LeftGrid)));
+                    }
+                    _ => failure = failure.or(bad.map(|b| (start + k, b))),
+                }
+            }
+            (crossings, failure)
+        })
+        .reduce(
+            || (0, None),
+            |(c1, f1), (c2, f2)| {
+                let failure = match (f1, f2) {
+                    (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                    (a, b) => a.or(b),
+                };
+                (c1 + c2, failure)
+            },
+        );
+    UpdateOutcome { crossings, failure }
+}
+
+/// Object-safe view of a [`Stepper`]: the time loop dispatches once per step through this
+/// trait, the kernels inside are monomorphised for the basis and mapping.
+pub trait TimeStepper: Send {
+    /// One step; see [`Stepper::step`].
+    fn step(
+        &mut self,
+        particles: &mut Particles,
+        body_acceleration: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<StepReport>;
+    /// Time step size.
+    fn dt(&self) -> f64;
+    /// The background grid.
+    fn grid(&self) -> &Grid;
+    /// The material law.
+    fn material(&self) -> &Material;
+    /// Names of the basis and mapping (`method.basis`, `method.reconstruction`).
+    fn method_names(&self) -> (&'static str, &'static str);
+}
+
+impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
+    fn step(
+        &mut self,
+        particles: &mut Particles,
+        body_acceleration: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<StepReport> {
+        Stepper::step(self, particles, body_acceleration, step, time)
+    }
+    fn dt(&self) -> f64 {
+        self.dt
+    }
+    fn grid(&self) -> &Grid {
+        &self.grid
+    }
+    fn material(&self) -> &Material {
+        &self.material
+    }
+    fn method_names(&self) -> (&'static str, &'static str) {
+        (self.basis.name(), self.mapping.name())
+    }
+}
