@@ -1,0 +1,61 @@
+//! Helpers shared by the integration tests: built-in scenarios with overrides, runs into
+//! temporary directories, thread pools of a given size.
+
+#![allow(dead_code)]
+
+use tlsmpm::app::{self, builtin, RunOptions, StudyRow};
+use tlsmpm::config::{self, Scenario};
+use tlsmpm::output::Summary;
+use tlsmpm::problems::Field;
+
+/// A built-in scenario with `KEY=VALUE` overrides.
+pub fn scenario(name: &str, overrides: &[&str]) -> Scenario {
+    let builtin = builtin::find(name).expect("built-in scenario");
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    config::from_str(builtin.toml, name, &overrides).expect("valid scenario")
+}
+
+fn options(dir: &tempfile::TempDir, threads: Option<usize>) -> RunOptions {
+    RunOptions {
+        out_dir: dir.path().to_path_buf(),
+        threads,
+        force: false,
+    }
+}
+
+/// Run a scenario (no plots) and return its summary.
+pub fn run(mut scenario: Scenario, threads: Option<usize>) -> Summary {
+    scenario.output.plots = false;
+    let dir = tempfile::tempdir().expect("temporary directory");
+    app::run(&scenario, "test", &options(&dir, threads), &mut |_, _| {}).expect("run succeeds")
+}
+
+/// Run a convergence study (no plots).
+pub fn study(mut scenario: Scenario, cells: &[usize]) -> Vec<StudyRow> {
+    scenario.output.plots = false;
+    let dir = tempfile::tempdir().expect("temporary directory");
+    app::study(&scenario, "test", cells, &options(&dir, None), &mut |_, _, _| {})
+        .expect("study succeeds")
+}
+
+/// Observed RMS orders of `field` between successive rows.
+pub fn orders(rows: &[StudyRow], field: Field) -> Vec<f64> {
+    rows.iter()
+        .skip(1)
+        .map(|row| {
+            row.fields
+                .iter()
+                .find(|f| f.0 == field)
+                .map(|f| f.3)
+                .expect("field in study")
+        })
+        .collect()
+}
+
+/// A rayon pool of `threads` threads.
+pub fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
+}
