@@ -45,8 +45,7 @@ pub fn study(
             progress(n, step, total)
         })?;
         let errors = summary.errors.unwrap_or_default();
-        let length = summary_length(&resolved, n, summary.n_particles);
-        let h = length / n as f64;
+        let h = crate::problems::build(&resolved)?.length() / n as f64;
         let mut fields = Vec::new();
         for field in Field::ALL {
             if let (Some(&e_rms), Some(&e_l2)) =
@@ -76,13 +75,6 @@ pub fn study(
         convergence_plot(&options.out_dir.join("convergence.svg"), name, &rows)?;
     }
     Ok(rows)
-}
-
-/// The domain length of a resolved scenario (problem default when the key is absent).
-fn summary_length(scenario: &Scenario, _cells: usize, _n: usize) -> f64 {
-    crate::problems::build(scenario)
-        .map(|p| p.length())
-        .unwrap_or(1.0)
 }
 
 /// The study as a text table: errors and observed orders per field.
