@@ -425,7 +425,11 @@ pub fn require_positive(key: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
-        Err(Error::invalid(key, value, "must be a positive finite number"))
+        Err(Error::invalid(
+            key,
+            value,
+            "must be a positive finite number",
+        ))
     }
 }
 
@@ -442,7 +446,11 @@ impl Scenario {
             return Err(Error::invalid("grid.cells", 0, "must be at least 1"));
         }
         if self.particles.per_cell == 0 {
-            return Err(Error::invalid("particles.per_cell", 0, "must be at least 1"));
+            return Err(Error::invalid(
+                "particles.per_cell",
+                0,
+                "must be at least 1",
+            ));
         }
         require_positive("material.density", self.material.density)?;
         require_positive("material.youngs_modulus", self.material.youngs_modulus)?;
@@ -460,7 +468,11 @@ impl Scenario {
             require_positive("problem.length", length)?;
         }
         if self.method.basis == BasisKind::Bspline && self.method.order == 0 {
-            return Err(Error::invalid("method.order", 0, "B-spline order must be >= 1"));
+            return Err(Error::invalid(
+                "method.order",
+                0,
+                "B-spline order must be >= 1",
+            ));
         }
         self.check_available()
     }

@@ -31,7 +31,10 @@ fn published_setup_matches_published_error_and_crossings() {
 fn without_grid_crossing_the_stress_is_much_more_accurate() {
     // A tenth of the load keeps every particle in its cell (max displacement ~2.5 cm
     // against cells of 1 m); the remaining error is the dynamic response to the ramp.
-    let summary = run(scenario("column_compaction", &["problem.gravity=-20"]), None);
+    let summary = run(
+        scenario("column_compaction", &["problem.gravity=-20"]),
+        None,
+    );
     assert_eq!(summary.grid_crossings, 0);
     let rel = summary.errors.expect("exact stress").rel_l2["stress"];
     assert!(rel < 0.5 * PUBLISHED_MPM, "rel L2 {rel:e}");

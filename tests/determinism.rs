@@ -37,7 +37,10 @@ fn simulate(threads: usize, steps: usize) -> (Particles, Vec<u64>) {
 #[test]
 fn one_two_and_three_threads_give_the_same_bits() {
     let (serial, serial_history) = simulate(1, 300);
-    assert!(serial_history.last().copied().unwrap_or(0) > 0, "no grid crossing");
+    assert!(
+        serial_history.last().copied().unwrap_or(0) > 0,
+        "no grid crossing"
+    );
     for threads in [2, 3] {
         let (parallel, parallel_history) = simulate(threads, 300);
         assert_eq!(serial.id, parallel.id);
@@ -63,9 +66,20 @@ fn binary_writes_identical_particles_csv_for_threads_1_and_2() {
         let out = dir.path().join(format!("threads_{threads}"));
         let status = Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
             .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .args(["run", "scenarios/column_compaction.toml", "--quiet", "--threads"])
+            .args([
+                "run",
+                "scenarios/column_compaction.toml",
+                "--quiet",
+                "--threads",
+            ])
             .arg(threads)
-            .args(["--set", "grid.cells=200", "--set", "output.plots=false", "--out"])
+            .args([
+                "--set",
+                "grid.cells=200",
+                "--set",
+                "output.plots=false",
+                "--out",
+            ])
             .arg(&out)
             .status()
             .expect("binary runs");
@@ -73,5 +87,8 @@ fn binary_writes_identical_particles_csv_for_threads_1_and_2() {
         outputs.push(std::fs::read(out.join("particles.csv")).expect("particles.csv"));
     }
     assert!(!outputs[0].is_empty());
-    assert!(outputs[0] == outputs[1], "particles.csv differs between 1 and 2 threads");
+    assert!(
+        outputs[0] == outputs[1],
+        "particles.csv differs between 1 and 2 threads"
+    );
 }

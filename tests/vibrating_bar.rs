@@ -21,7 +21,12 @@ fn assert_orders(label: &str, observed: &[f64], low: f64, high: f64) {
 #[test]
 fn published_setup_mpm_orders_two_in_displacement_one_in_stress() {
     let rows = study(scenario("vibrating_bar", &[]), &CELLS);
-    assert_orders("displacement", &orders(&rows, Field::Displacement), 1.9, 2.1);
+    assert_orders(
+        "displacement",
+        &orders(&rows, Field::Displacement),
+        1.9,
+        2.1,
+    );
     assert_orders("stress", &orders(&rows, Field::Stress), 0.95, 1.05);
 }
 
@@ -31,7 +36,12 @@ fn velocity_is_second_order_once_the_time_error_is_removed() {
     // (SPEC §6.2 measurement note); the spatial velocity error is then 2nd order.
     let rows = study(scenario("vibrating_bar", &["time.dt=1e-8"]), &CELLS);
     assert_orders("velocity", &orders(&rows, Field::Velocity), 1.9, 2.1);
-    assert_orders("displacement", &orders(&rows, Field::Displacement), 1.9, 2.1);
+    assert_orders(
+        "displacement",
+        &orders(&rows, Field::Displacement),
+        1.9,
+        2.1,
+    );
 }
 
 #[test]
@@ -42,7 +52,11 @@ fn comparing_with_the_end_time_velocity_shows_the_first_order_time_error() {
         scenario("vibrating_bar", &["output.velocity_reference=end"]),
         &[20, 40],
     );
-    let v = &rows[1].fields.iter().find(|f| f.0 == Field::Velocity).unwrap();
+    let v = &rows[1]
+        .fields
+        .iter()
+        .find(|f| f.0 == Field::Velocity)
+        .unwrap();
     assert!(v.1 > 4e-10 && v.1 < 1.2e-9, "velocity rms {}", v.1);
     assert!(v.3 < 0.5, "velocity order {}", v.3);
 }
@@ -53,7 +67,12 @@ fn usl_converges_like_musl_without_grid_crossing() {
         scenario("vibrating_bar", &["method.scheme=usl", "time.dt=1e-8"]),
         &CELLS,
     );
-    assert_orders("displacement", &orders(&rows, Field::Displacement), 1.9, 2.1);
+    assert_orders(
+        "displacement",
+        &orders(&rows, Field::Displacement),
+        1.9,
+        2.1,
+    );
     assert_orders("velocity", &orders(&rows, Field::Velocity), 1.9, 2.1);
     assert_orders("stress", &orders(&rows, Field::Stress), 0.95, 1.05);
 }

@@ -12,12 +12,14 @@ pub struct Builtin {
 pub const BUILTIN: &[Builtin] = &[
     Builtin {
         name: "vibrating_bar",
-        description: "vibrating bar, small deformation (SPEC 6.2): 40 cells, 12 PPC, exact solution",
+        description:
+            "vibrating bar, small deformation (SPEC 6.2): 40 cells, 12 PPC, exact solution",
         toml: include_str!("../../scenarios/vibrating_bar.toml"),
     },
     Builtin {
         name: "vibrating_bar_large",
-        description: "vibrating bar, large deformation (SPEC 6.3): Hill law, 20 cells, 8 PPC, grid crossing",
+        description:
+            "vibrating bar, large deformation (SPEC 6.3): Hill law, 20 cells, 8 PPC, grid crossing",
         toml: include_str!("../../scenarios/vibrating_bar_large.toml"),
     },
     Builtin {

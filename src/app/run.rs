@@ -163,7 +163,12 @@ fn write_outputs(
     let (basis, reconstruction) = simulation.stepper.method_names();
     let summary = Summary {
         scenario: name.to_string(),
-        status: if failure.is_some() { "failed" } else { "completed" }.into(),
+        status: if failure.is_some() {
+            "failed"
+        } else {
+            "completed"
+        }
+        .into(),
         failure: failure.map(|e| e.to_string()),
         problem: problem.name().into(),
         basis: basis.into(),
@@ -187,7 +192,11 @@ fn write_outputs(
         },
         config: scenario.clone(),
     };
-    write_particles(&out_dir.join("particles.csv"), particles, &as_refs(&columns))?;
+    write_particles(
+        &out_dir.join("particles.csv"),
+        particles,
+        &as_refs(&columns),
+    )?;
     write_history(&out_dir.join("history.csv"), &simulation.history)?;
     if scenario.output.plots {
         stress_plot(&out_dir.join("stress.svg"), problem, simulation, &columns)?;
@@ -233,7 +242,11 @@ fn stress_plot(
             style: Style::Line,
         });
     }
-    let title = format!("{}: stress at t = {:.4e} s", problem.name(), simulation.time());
+    let title = format!(
+        "{}: stress at t = {:.4e} s",
+        problem.name(),
+        simulation.time()
+    );
     profile_plot(
         path,
         &Axes {

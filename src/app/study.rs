@@ -31,7 +31,11 @@ pub fn study(
     progress: &mut (dyn FnMut(usize, usize, usize) + Send),
 ) -> Result<Vec<StudyRow>> {
     if cells.is_empty() {
-        return Err(Error::invalid("--cells", "(empty)", "give at least one cell count"));
+        return Err(Error::invalid(
+            "--cells",
+            "(empty)",
+            "give at least one cell count",
+        ));
     }
     let mut rows: Vec<StudyRow> = Vec::new();
     for &n in cells {
@@ -48,9 +52,10 @@ pub fn study(
         let h = crate::problems::build(&resolved)?.length() / n as f64;
         let mut fields = Vec::new();
         for field in Field::ALL {
-            if let (Some(&e_rms), Some(&e_l2)) =
-                (errors.rms.get(field.name()), errors.rel_l2.get(field.name()))
-            {
+            if let (Some(&e_rms), Some(&e_l2)) = (
+                errors.rms.get(field.name()),
+                errors.rel_l2.get(field.name()),
+            ) {
                 let order = rows
                     .last()
                     .and_then(|prev| {
@@ -85,7 +90,12 @@ pub fn format_table(rows: &[StudyRow]) -> String {
     };
     let _ = write!(out, "{:>6} {:>10}", "cells", "h");
     for (field, ..) in &first.fields {
-        let _ = write!(out, " {:>14} {:>6}", format!("rms {}", short(*field)), "order");
+        let _ = write!(
+            out,
+            " {:>14} {:>6}",
+            format!("rms {}", short(*field)),
+            "order"
+        );
     }
     out.push('\n');
     for row in rows {

@@ -12,7 +12,11 @@ use tlsmpm::app::{self, builtin, RunOptions};
 use tlsmpm::config::{self, Scenario};
 
 #[derive(Parser)]
-#[command(name = "tlsmpm", version, about = "Material point methods with conservative Taylor least squares")]
+#[command(
+    name = "tlsmpm",
+    version,
+    about = "Material point methods with conservative Taylor least squares"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -64,13 +68,17 @@ impl Common {
         let path = Path::new(&self.scenario);
         if !path.exists() {
             if let Some(b) = builtin::find(&self.scenario) {
-                return Ok((config::from_str(b.toml, b.name, &self.set)?, b.name.to_string()));
+                return Ok((
+                    config::from_str(b.toml, b.name, &self.set)?,
+                    b.name.to_string(),
+                ));
             }
         }
         let scenario = config::load(path, &self.set)?;
-        let name = path
-            .file_stem()
-            .map_or_else(|| "scenario".to_string(), |s| s.to_string_lossy().into_owned());
+        let name = path.file_stem().map_or_else(
+            || "scenario".to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        );
         Ok((scenario, name))
     }
 
@@ -175,10 +183,7 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             progress.finish();
             let rows = rows?;
             print!("{}", app::study::format_table(&rows));
-            println!(
-                "wrote {}",
-                options.out_dir.join("study.csv").display()
-            );
+            println!("wrote {}", options.out_dir.join("study.csv").display());
             Ok(())
         }
     }

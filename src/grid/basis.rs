@@ -41,7 +41,11 @@ impl Shape {
     #[inline]
     pub fn gradient(&self, grid_field: &[f64]) -> f64 {
         let g = &grid_field[self.first..self.first + self.len];
-        self.dphi[..self.len].iter().zip(g).map(|(p, v)| p * v).sum()
+        self.dphi[..self.len]
+            .iter()
+            .zip(g)
+            .map(|(p, v)| p * v)
+            .sum()
     }
 }
 

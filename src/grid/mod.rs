@@ -49,7 +49,7 @@ impl Grid {
     #[inline]
     pub fn cell_of(&self, x: f64) -> Option<usize> {
         let xi = (x - self.origin) / self.h;
-        if !(xi >= 0.0 && xi <= self.cells as f64) {
+        if xi.is_nan() || xi < 0.0 || xi > self.cells as f64 {
             return None;
         }
         Some((xi as usize).min(self.cells - 1))

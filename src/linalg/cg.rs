@@ -66,7 +66,7 @@ impl LinearSolver for ConjugateGradient {
         for k in 1..=self.max_iterations {
             a.mul_vec(d, q);
             let dq = dot(d, q);
-            if !(dq > 0.0) {
+            if dq.is_nan() || dq <= 0.0 {
                 return Err(Error::Solver {
                     solver: "cg".into(),
                     reason: format!("non-positive curvature d^T A d = {dq:e} at iteration {k}"),
@@ -130,7 +130,11 @@ mod tests {
             .unwrap();
         assert!(stats.iterations <= n + 1, "{stats:?}");
         assert!(stats.relative_residual < 1e-12);
-        let err = x.iter().zip(&exact).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let err = x
+            .iter()
+            .zip(&exact)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-9, "{err}");
         // Warm start from the solution: converged at once.
         let stats = ConjugateGradient::new(1e-8, 1000)

@@ -81,11 +81,8 @@ mod tests {
 
     #[test]
     fn triplets_sum_duplicates_and_multiply() {
-        let a = CsrMatrix::from_triplets(
-            2,
-            2,
-            &[(0, 0, 1.0), (0, 1, 2.0), (1, 1, 3.0), (0, 0, 1.0)],
-        );
+        let a =
+            CsrMatrix::from_triplets(2, 2, &[(0, 0, 1.0), (0, 1, 2.0), (1, 1, 3.0), (0, 0, 1.0)]);
         assert_eq!(a.values, vec![2.0, 2.0, 3.0]);
         let mut y = [0.0; 2];
         a.mul_vec(&[1.0, 1.0], &mut y);

@@ -104,7 +104,12 @@ mod tests {
         let m_p: f64 = particles.mass.iter().sum();
         let m_i: f64 = fields.mass.iter().sum();
         assert!((m_p - m_i).abs() <= 1e-14 * m_p);
-        let p_p: f64 = particles.mass.iter().zip(&particles.v).map(|(m, v)| m * v).sum();
+        let p_p: f64 = particles
+            .mass
+            .iter()
+            .zip(&particles.v)
+            .map(|(m, v)| m * v)
+            .sum();
         let p_i: f64 = fields.momentum.iter().sum();
         assert!((p_p - p_i).abs() <= 1e-14 * particles.mass.iter().sum::<f64>());
         // Constant stress gives zero interior internal force (divergence-free).

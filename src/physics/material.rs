@@ -120,10 +120,16 @@ mod tests {
             sigma = law.update(sigma, deps);
         }
         let exact = 1e6 * (1.0 - 1.0 / j);
-        assert!((sigma - exact).abs() < 1e-3 * exact.abs(), "{sigma} vs {exact}");
+        assert!(
+            (sigma - exact).abs() < 1e-3 * exact.abs(),
+            "{sigma} vs {exact}"
+        );
         for sigma in [-1e4, -1e-3, 1e-6, 2e3] {
             let w = law.strain_energy_density(sigma);
-            assert!(w > 0.0 && (w - sigma * sigma / 2e6).abs() < 0.02 * w, "{sigma}: {w}");
+            assert!(
+                w > 0.0 && (w - sigma * sigma / 2e6).abs() < 0.02 * w,
+                "{sigma}: {w}"
+            );
         }
     }
 

@@ -99,18 +99,15 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         let fields = &mut self.fields;
 
         // 1. Mass, internal and external force.
-        self.mapping.map_mass_and_internal_force(
-            &self.basis,
-            particles,
-            &self.bins,
-            fields,
-        );
+        self.mapping
+            .map_mass_and_internal_force(&self.basis, particles, &self.bins, fields);
         let grid_mass: f64 = fields.mass.iter().sum();
         let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
         for (f, m) in fields.external_force.iter_mut().zip(&fields.mass) {
             *f = body_acceleration * m;
         }
-        self.boundary.add_tractions(ends, &mut fields.external_force);
+        self.boundary
+            .add_tractions(ends, &mut fields.external_force);
         if self.scheme == Scheme::Usl {
             self.mapping
                 .map_momentum(&self.basis, particles, &self.bins, fields);
@@ -148,12 +145,22 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
 
         // 5.-8. Kinematics and stress, dispatched once on the material law.
         let outcome = match self.material {
-            Material::Linear(law) => {
-                update_particles(&self.basis, &self.grid, particles, &fields.velocity, dt, law)
-            }
-            Material::Hill(law) => {
-                update_particles(&self.basis, &self.grid, particles, &fields.velocity, dt, law)
-            }
+            Material::Linear(law) => update_particles(
+                &self.basis,
+                &self.grid,
+                particles,
+                &fields.velocity,
+                dt,
+                law,
+            ),
+            Material::Hill(law) => update_particles(
+                &self.basis,
+                &self.grid,
+                particles,
+                &fields.velocity,
+                dt,
+                law,
+            ),
         };
         if let Some((particle, failure)) = outcome.failure {
             let field = match failure {

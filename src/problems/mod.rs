@@ -84,7 +84,11 @@ pub trait Problem: Send + Sync {
 pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     let p = &scenario.problem;
     let reject = |key: &str, value: Option<f64>, kind: &str| match value {
-        Some(v) => Err(Error::invalid(key, v, format!("not used by problem.kind = \"{kind}\""))),
+        Some(v) => Err(Error::invalid(
+            key,
+            v,
+            format!("not used by problem.kind = \"{kind}\""),
+        )),
         None => Ok(()),
     };
     match p.kind {

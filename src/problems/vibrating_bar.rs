@@ -100,7 +100,8 @@ impl Problem for VibratingBar {
             Field::Displacement => self.v0 / w * (w * t).sin() * (k * x0).sin(),
             Field::Velocity => self.v0 * (w * t).cos() * (k * x0).sin(),
             Field::Stress => {
-                self.v0 * (self.youngs_modulus * self.density).sqrt()
+                self.v0
+                    * (self.youngs_modulus * self.density).sqrt()
                     * (w * t).sin()
                     * (k * x0).cos()
             }

@@ -34,8 +34,14 @@ pub fn run(mut scenario: Scenario, threads: Option<usize>) -> Summary {
 pub fn study(mut scenario: Scenario, cells: &[usize]) -> Vec<StudyRow> {
     scenario.output.plots = false;
     let dir = tempfile::tempdir().expect("temporary directory");
-    app::study(&scenario, "test", cells, &options(&dir, None), &mut |_, _, _| {})
-        .expect("study succeeds")
+    app::study(
+        &scenario,
+        "test",
+        cells,
+        &options(&dir, None),
+        &mut |_, _, _| {},
+    )
+    .expect("study succeeds")
 }
 
 /// Observed RMS orders of `field` between successive rows.
