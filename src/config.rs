@@ -327,9 +327,17 @@ pub fn load(path: &Path, overrides: &[String]) -> Result<Scenario> {
 
 /// Parse scenario text (`origin` names it in messages) and apply `KEY=VALUE` overrides.
 pub fn from_str(text: &str, origin: &str, overrides: &[String]) -> Result<Scenario> {
-    let mut table: toml::Table = toml::from_str(text).map_err(|e| Error::Parse {
-        origin: origin.to_string(),
-        message: one_line(e.message()),
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| {
+        let at = e.span().map_or(String::new(), |span| {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |k| k + 1) + 1;
+            format!(" at line {line}, column {column}")
+        });
+        Error::Parse {
+            origin: format!("{origin}{at}"),
+            message: one_line(e.message()),
+        }
     })?;
     for assignment in overrides {
         apply_override(&mut table, assignment)?;
@@ -360,10 +368,13 @@ fn schema_error(origin: &str, e: serde_path_to_error::Error<toml::de::Error>) ->
                 format!("{}.{field}", parent.trim_end_matches('.'))
             }
         };
-        return Error::UnknownKey {
-            key,
-            hint: format!(" in {origin}{}", hint.trim_start_matches(',')),
+        let expected = hint.trim_start_matches(',').trim();
+        let hint = if expected.is_empty() {
+            format!(" in {origin}")
+        } else {
+            format!(" in {origin} ({expected})")
         };
+        return Error::UnknownKey { key, hint };
     }
     if let Some(rest) = message.strip_prefix("missing field `") {
         let field = rest.split('`').next().unwrap_or(rest);
@@ -621,7 +632,8 @@ end = 1.9e-6
         assert!(err.to_string().contains("KEY=VALUE"), "{err}");
         let err = from_str(BAR, "bar", &["grid.cells.x=1".to_string()]).unwrap_err();
         assert!(err.to_string().contains("not a table"), "{err}");
-        let err = from_str("[problem\nkind=1", "bad", &[]).unwrap_err();
+        let err = from_str("[grid]\ncells = 3\n[problem\nkind=1", "bad", &[]).unwrap_err();
         assert!(matches!(err, Error::Parse { .. }));
+        assert!(err.to_string().contains("line 3"), "{err}");
     }
 }

@@ -145,7 +145,8 @@ fn main() -> ExitCode {
             let code = err
                 .downcast_ref::<tlsmpm::Error>()
                 .map_or(1, tlsmpm::Error::exit_code);
-            eprintln!("error: {err:#}");
+            // Library messages already carry their cause: print the top level only.
+            eprintln!("error: {err}");
             ExitCode::from(code as u8)
         }
     }
