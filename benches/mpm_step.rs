@@ -1,1 +1,165 @@
-fn main(){}
+//! Throughput of one full MPM step, and a STREAM-like triad to compare it with.
+//!
+//! ```text
+//! cargo bench --bench mpm_step                  # both groups
+//! cargo bench --bench mpm_step -- mpm_step/serial
+//! cargo bench --bench mpm_step -- memory_bandwidth
+//! ```
+//!
+//! * `mpm_step/{serial,parallel}/N`: one `TimeStepper::step` of the vibrating bar
+//!   (`scenarios/vibrating_bar.toml`: linear basis, lumped mass, MUSL, 12 particles per
+//!   cell, `dt = 1e-7`) with `N` particles on `N / 12` cells. The throughput is in
+//!   particle-steps per second ("elements"). `serial` runs in a 1-thread rayon pool,
+//!   `parallel` in a pool of `std::thread::available_parallelism()` threads.
+//! * `memory_bandwidth/triad_{serial,parallel}`: `a[i] = b[i] + s c[i]` over three arrays
+//!   of 2^24 `f64` (384 MiB), counted as `3 * 8` bytes per element (STREAM convention: no
+//!   write-allocate traffic).
+//!
+//! See `perf/README.md` for the bytes moved per particle-step and the comparison.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use rayon::prelude::*;
+use std::hint::black_box;
+use std::time::Duration;
+use tlsmpm::app::build::build_simulation;
+use tlsmpm::physics::Simulation;
+use tlsmpm::problems::Problem;
+
+const SCENARIO: &str = include_str!("../scenarios/vibrating_bar.toml");
+const PER_CELL: usize = 12;
+const SIZES: [usize; 4] = [1_000, 10_000, 100_000, 1_000_000];
+
+/// A vibrating bar with `particles` particles (rounded down to a multiple of 12), its
+/// problem and the number of steps taken so far.
+struct Bar {
+    problem: Box<dyn Problem>,
+    sim: Simulation,
+}
+
+impl Bar {
+    fn new(particles: usize) -> Self {
+        let cells = (particles / PER_CELL).max(1);
+        let overrides = [
+            format!("grid.cells={cells}"),
+            format!("particles.per_cell={PER_CELL}"),
+            "method.basis=\"linear\"".to_string(),
+            "method.reconstruction=\"none\"".to_string(),
+            "method.mass=\"lumped\"".to_string(),
+            "method.scheme=\"musl\"".to_string(),
+            "time.dt=1.0e-7".to_string(),
+        ];
+        let scenario = tlsmpm::config::from_str(SCENARIO, "vibrating_bar.toml", &overrides)
+            .unwrap_or_else(|e| panic!("bench scenario: {e}"));
+        let (problem, sim) =
+            build_simulation(&scenario, false).unwrap_or_else(|e| panic!("bench build: {e}"));
+        assert_eq!(sim.particles.len(), cells * PER_CELL);
+        Self { problem, sim }
+    }
+
+    /// One time step; panics with the solver's message on failure.
+    fn step(&mut self) -> tlsmpm::physics::step::StepReport {
+        let step = self.sim.steps_done + 1;
+        let time = step as f64 * self.sim.stepper.dt();
+        let body = self.problem.body_acceleration(time);
+        let report = self
+            .sim
+            .stepper
+            .step(&mut self.sim.particles, body, step, time)
+            .unwrap_or_else(|e| panic!("step {step} failed: {e}"));
+        self.sim.steps_done = step;
+        report
+    }
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap_or_else(|e| panic!("rayon pool with {threads} threads: {e}"))
+}
+
+fn parallel_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+fn mpm_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("mpm_step");
+    let pools = [("serial", pool(1)), ("parallel", pool(parallel_threads()))];
+    for n in SIZES {
+        if n >= 100_000 {
+            group
+                .sample_size(10)
+                .warm_up_time(Duration::from_millis(1000))
+                .measurement_time(Duration::from_secs(3));
+        } else {
+            group
+                .sample_size(30)
+                .warm_up_time(Duration::from_millis(500))
+                .measurement_time(Duration::from_secs(2));
+        }
+        group.throughput(Throughput::Elements(n as u64));
+        for (name, pool) in &pools {
+            // Built (and first-touched) inside the pool, stepped only inside it.
+            let mut bar = pool.install(|| Bar::new(n));
+            group.bench_function(BenchmarkId::new(*name, n), |b| {
+                pool.install(|| b.iter(|| black_box(bar.step())));
+            });
+        }
+    }
+    group.finish();
+}
+
+const TRIAD_LEN: usize = 1 << 24;
+const TRIAD_CHUNK: usize = 1 << 16;
+
+fn triad_serial(a: &mut [f64], b: &[f64], c: &[f64], s: f64) {
+    for ((a, b), c) in a.iter_mut().zip(b).zip(c) {
+        *a = b + s * c;
+    }
+}
+
+fn triad_parallel(a: &mut [f64], b: &[f64], c: &[f64], s: f64) {
+    a.par_chunks_mut(TRIAD_CHUNK)
+        .zip(b.par_chunks(TRIAD_CHUNK))
+        .zip(c.par_chunks(TRIAD_CHUNK))
+        .for_each(|((a, b), c)| triad_serial(a, b, c, s));
+}
+
+fn memory_bandwidth(c: &mut Criterion) {
+    let mut group = c.benchmark_group("memory_bandwidth");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(1000))
+        .measurement_time(Duration::from_secs(3))
+        .throughput(Throughput::Bytes((3 * 8 * TRIAD_LEN) as u64));
+    let parallel = pool(parallel_threads());
+    // First touch in parallel so that pages are spread like the parallel accesses.
+    let (mut a, b, cc) = parallel.install(|| {
+        let fill = |value: f64| {
+            let mut v = vec![0.0f64; TRIAD_LEN];
+            v.par_chunks_mut(TRIAD_CHUNK).for_each(|c| c.fill(value));
+            v
+        };
+        (fill(0.0), fill(1.0), fill(2.0))
+    });
+    let s = black_box(3.0);
+    group.bench_function("triad_serial", |bench| {
+        bench.iter(|| {
+            triad_serial(&mut a, black_box(&b), black_box(&cc), s);
+            black_box(&mut a);
+        });
+    });
+    group.bench_function("triad_parallel", |bench| {
+        parallel.install(|| {
+            bench.iter(|| {
+                triad_parallel(&mut a, black_box(&b), black_box(&cc), s);
+                black_box(&mut a);
+            })
+        });
+    });
+    assert_eq!(a[TRIAD_LEN / 2], 7.0);
+    group.finish();
+}
+
+criterion_group!(benches, mpm_step, memory_bandwidth);
+criterion_main!(benches);

@@ -8,15 +8,11 @@ use super::{Basis, Grid, Shape};
 #[derive(Clone, Copy, Debug)]
 pub struct LinearBasis {
     grid: Grid,
-    inv_h: f64,
 }
 
 impl LinearBasis {
     pub fn new(grid: Grid) -> Self {
-        Self {
-            grid,
-            inv_h: 1.0 / grid.h,
-        }
+        Self { grid }
     }
 }
 
@@ -40,13 +36,13 @@ impl Basis for LinearBasis {
 
     #[inline]
     fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {
-        let xi = (x - self.grid.cell_left(cell)) * self.inv_h;
+        let xi = (x - self.grid.cell_left(cell)) * self.grid.inv_h;
         shape.first = cell;
         shape.len = 2;
         shape.phi[0] = 1.0 - xi;
         shape.phi[1] = xi;
-        shape.dphi[0] = -self.inv_h;
-        shape.dphi[1] = self.inv_h;
+        shape.dphi[0] = -self.grid.inv_h;
+        shape.dphi[1] = self.grid.inv_h;
     }
 }
 

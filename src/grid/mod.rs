@@ -18,6 +18,8 @@ pub struct Grid {
     pub cells: usize,
     /// Cell size `h = length / cells`.
     pub h: f64,
+    /// `1 / h`.
+    pub inv_h: f64,
 }
 
 impl Grid {
@@ -28,6 +30,7 @@ impl Grid {
             length,
             cells,
             h: length / cells as f64,
+            inv_h: cells as f64 / length,
         }
     }
 
@@ -48,7 +51,7 @@ impl Grid {
     /// ```
     #[inline]
     pub fn cell_of(&self, x: f64) -> Option<usize> {
-        let xi = (x - self.origin) / self.h;
+        let xi = (x - self.origin) * self.inv_h;
         if xi.is_nan() || xi < 0.0 || xi > self.cells as f64 {
             return None;
         }

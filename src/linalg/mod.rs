@@ -18,7 +18,7 @@ use crate::error::Result;
 pub struct SolveStats {
     /// Iterations (CG steps, V-cycles, ...); 0 for direct solves.
     pub iterations: usize,
-    /// Final `||b - A x|| / ||b - A x_0||` (0 when the initial residual was already 0).
+    /// Final `||b - A x|| / ||b||` (0 for `b = 0`).
     pub relative_residual: f64,
 }
 

@@ -31,6 +31,42 @@ where
     partial.iter().sum()
 }
 
+/// `K` sums `sum_{k < n} terms(k)[j]` in one pass, each bitwise identical for any thread
+/// count (same blocking as [`deterministic_sum`]).
+///
+/// ```
+/// let [count, total] = tlsmpm::numerics::sum::deterministic_sums(100, |k| [1.0, k as f64]);
+/// assert_eq!((count, total), (100.0, 4950.0));
+/// ```
+pub fn deterministic_sums<F, const K: usize>(n: usize, terms: F) -> [f64; K]
+where
+    F: Fn(usize) -> [f64; K] + Sync,
+{
+    let block_sum = |range: std::ops::Range<usize>| {
+        let mut acc = [0.0; K];
+        for k in range {
+            for (a, t) in acc.iter_mut().zip(terms(k)) {
+                *a += t;
+            }
+        }
+        acc
+    };
+    if n <= BLOCK {
+        return block_sum(0..n);
+    }
+    let partial: Vec<[f64; K]> = (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| block_sum(b * BLOCK..((b + 1) * BLOCK).min(n)))
+        .collect();
+    let mut total = [0.0; K];
+    for block in &partial {
+        for (t, b) in total.iter_mut().zip(block) {
+            *t += b;
+        }
+    }
+    total
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,6 +86,13 @@ mod tests {
             .unwrap()
             .install(|| deterministic_sum(n, term));
         assert_eq!(one.to_bits(), two.to_bits());
+        let [a, b] = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+            .install(|| deterministic_sums(n, |k| [term(k), 2.0 * term(k)]));
+        assert_eq!(a.to_bits(), one.to_bits());
+        assert_eq!(b.to_bits(), (2.0 * one).to_bits());
         let serial: f64 = (0..n).map(term).sum();
         assert!((one - serial).abs() < 1e-10 * serial.abs());
     }

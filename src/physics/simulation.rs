@@ -4,7 +4,7 @@
 
 use super::step::TimeStepper;
 use crate::error::Result;
-use crate::numerics::sum::deterministic_sum;
+use crate::numerics::sum::deterministic_sums;
 use crate::particles::Particles;
 
 /// One row of `history.csv` (DESIGN §4).
@@ -55,9 +55,11 @@ impl Simulation {
     pub fn energies(&self) -> (f64, f64) {
         let p = &self.particles;
         let material = *self.stepper.material();
-        let kinetic = deterministic_sum(p.len(), |k| 0.5 * p.mass[k] * p.v[k] * p.v[k]);
-        let strain = deterministic_sum(p.len(), |k| {
-            p.volume[k] * material.strain_energy_density(p.stress[k])
+        let [kinetic, strain] = deterministic_sums(p.len(), |k| {
+            [
+                0.5 * p.mass[k] * p.v[k] * p.v[k],
+                p.volume[k] * material.strain_energy_density(p.stress[k]),
+            ]
         });
         (kinetic, strain)
     }

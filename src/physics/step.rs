@@ -21,7 +21,7 @@ use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::{Basis, Grid, Shape};
 use crate::mapping::{GridFields, Mapping};
-use crate::numerics::sum::deterministic_sum;
+use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, Particles};
 use crate::physics::{Boundary, ConstitutiveLaw, Material};
 use rayon::prelude::*;
@@ -185,7 +185,10 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                 time,
             });
         }
-        self.bins.sort(particles, self.grid.cells);
+        if outcome.crossings > 0 {
+            // Cells changed: rebuild the bins. Without crossings they are still valid.
+            self.bins.sort(particles, self.grid.cells);
+        }
         Ok(StepReport {
             mass_error,
             momentum_error,
@@ -198,8 +201,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
 fn momentum_error(particles: &Particles, fields: &GridFields) -> Option<f64> {
     let n = particles.len();
     let (m, v) = (&particles.mass, &particles.v);
-    let particle_momentum = deterministic_sum(n, |p| m[p] * v[p]);
-    let scale = deterministic_sum(n, |p| m[p] * v[p].abs());
+    let [particle_momentum, scale] = deterministic_sums(n, |p| [m[p] * v[p], m[p] * v[p].abs()]);
     let grid_momentum: f64 = fields
         .momentum
         .iter()
