@@ -316,6 +316,12 @@ impl Default for OutputConfig {
     }
 }
 
+/// Largest particle count accepted (about 16 GB of particle arrays).
+pub const MAX_PARTICLES: usize = 200_000_000;
+
+/// Largest number of time steps accepted.
+pub const MAX_STEPS: usize = 10_000_000_000;
+
 /// Read a scenario file and apply `KEY=VALUE` overrides.
 pub fn load(path: &Path, overrides: &[String]) -> Result<Scenario> {
     let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
@@ -343,7 +349,7 @@ pub fn from_str(text: &str, origin: &str, overrides: &[String]) -> Result<Scenar
         apply_override(&mut table, assignment)?;
     }
     let scenario: Scenario = serde_path_to_error::deserialize(toml::Value::Table(table))
-        .map_err(|e| schema_error(origin, e))?;
+        .map_err(|e| schema_error(origin, overrides, e))?;
     Ok(scenario)
 }
 
@@ -351,7 +357,11 @@ fn one_line(message: &str) -> String {
     message.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-fn schema_error(origin: &str, e: serde_path_to_error::Error<toml::de::Error>) -> Error {
+fn schema_error(
+    origin: &str,
+    overrides: &[String],
+    e: serde_path_to_error::Error<toml::de::Error>,
+) -> Error {
     let path = e.path().to_string();
     let message = one_line(e.inner().message());
     if let Some(rest) = message.strip_prefix("unknown field `") {
@@ -369,10 +379,19 @@ fn schema_error(origin: &str, e: serde_path_to_error::Error<toml::de::Error>) ->
             }
         };
         let expected = hint.trim_start_matches(',').trim();
-        let hint = if expected.is_empty() {
-            format!(" in {origin}")
+        let from_set = overrides.iter().any(|o| {
+            let set_key = o.split('=').next().unwrap_or("").trim();
+            set_key == key || set_key.starts_with(&format!("{key}."))
+        });
+        let source = if from_set {
+            "given with --set".to_string()
         } else {
-            format!(" in {origin} ({expected})")
+            format!("in {origin}")
+        };
+        let hint = if expected.is_empty() {
+            format!(" {source}")
+        } else {
+            format!(" {source} ({expected})")
         };
         return Error::UnknownKey { key, hint };
     }
@@ -431,6 +450,23 @@ pub fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<()> {
     Ok(())
 }
 
+/// A float as a user would write it: plain for moderate magnitudes, scientific otherwise.
+///
+/// ```
+/// use tlsmpm::config::display_float;
+/// assert_eq!(display_float(-1.0), "-1");
+/// assert_eq!(display_float(1e-300), "1e-300");
+/// assert_eq!(display_float(f64::NAN), "NaN");
+/// ```
+pub fn display_float(value: f64) -> String {
+    let magnitude = value.abs();
+    if value == 0.0 || !value.is_finite() || (1e-3..1e6).contains(&magnitude) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
+}
+
 /// `Err` naming `key` unless `value` is finite and strictly positive.
 pub fn require_positive(key: &str, value: f64) -> Result<()> {
     if value.is_finite() && value > 0.0 {
@@ -463,10 +499,32 @@ impl Scenario {
                 "must be at least 1",
             ));
         }
+        let particles = self.grid.cells.checked_mul(self.particles.per_cell);
+        if particles.is_none_or(|n| n > MAX_PARTICLES) {
+            return Err(Error::invalid(
+                "grid.cells",
+                self.grid.cells,
+                format!(
+                    "with particles.per_cell = {} that is more than {MAX_PARTICLES:e} particles",
+                    self.particles.per_cell
+                ),
+            ));
+        }
         require_positive("material.density", self.material.density)?;
         require_positive("material.youngs_modulus", self.material.youngs_modulus)?;
         require_positive("time.dt", self.time.dt)?;
         require_positive("time.end", self.time.end)?;
+        if self.time.end / self.time.dt > MAX_STEPS as f64 {
+            return Err(Error::invalid(
+                "time.dt",
+                display_float(self.time.dt),
+                format!(
+                    "time.end / time.dt = {:e} steps, more than {:e}",
+                    self.time.end / self.time.dt,
+                    MAX_STEPS as f64
+                ),
+            ));
+        }
         if self.n_steps() == 0 {
             return Err(Error::invalid(
                 "time.end",
@@ -593,6 +651,7 @@ end = 1.9e-6
             matches!(&err, Error::UnknownKey { key, .. } if key == "grid.celss"),
             "{err}"
         );
+        assert!(err.to_string().contains("--set"), "{err}");
         let err = from_str(BAR, "bar", &["solvr.kind=cg".to_string()]).unwrap_err();
         assert!(
             matches!(&err, Error::UnknownKey { key, .. } if key == "solvr"),
@@ -615,6 +674,13 @@ end = 1.9e-6
             ("material.youngs_modulus=0", "material.youngs_modulus"),
             ("time.dt=0", "time.dt"),
             ("time.dt=nan", "time.dt"),
+            ("time.dt=1e-300", "time.dt"),
+            ("grid.cells=1000000000000", "grid.cells"),
+            ("particles.per_cell=4611686018427387904", "grid.cells"),
+            (
+                "particles.per_cell=18446744073709551615",
+                "particles.per_cell",
+            ),
         ] {
             let err = from_str(BAR, "bar", &[set.to_string()])
                 .and_then(|s| s.validate())

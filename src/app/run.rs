@@ -1,6 +1,9 @@
 //! One simulation with its outputs: `summary.json`, `particles.csv`, `history.csv`,
-//! snapshots and the stress-profile plot. On a numerical failure the state of the last
-//! completed step is written (status `"failed"`) before the error is returned.
+//! snapshots and the stress-profile plot. On a numerical failure everything computed is
+//! written before the error is returned: `summary.json` (status `"failed"`, the message
+//! and `failed_step`), the history of the completed steps, and `particles.csv` with the
+//! particle state at the moment of failure (partly updated by the failing step, so the
+//! non-finite values or the escaping particle can be located).
 
 use crate::app::build_simulation;
 use crate::config::{Scenario, VelocityReference};
@@ -170,6 +173,7 @@ fn write_outputs(
         }
         .into(),
         failure: failure.map(|e| e.to_string()),
+        failed_step: failure.map(|_| simulation.steps_done + 1),
         problem: problem.name().into(),
         basis: basis.into(),
         reconstruction: reconstruction.into(),

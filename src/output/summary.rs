@@ -38,6 +38,11 @@ pub struct Summary {
     pub status: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub failure: Option<String>,
+    /// The step that failed (`n_steps + 1`); `particles.csv` then holds the particle state
+    /// as it was when the failure was detected, partly updated by that step, which shows
+    /// where the non-finite values or the escaping particle are.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub failed_step: Option<usize>,
     pub problem: String,
     pub basis: String,
     pub reconstruction: String,

@@ -66,7 +66,8 @@ impl Simulation {
 
     /// Run `n_steps` steps. `body(t)` is the signed body acceleration at time `t` (applied
     /// at the end time of each step); `after_step(sim)` is called after every step (progress,
-    /// snapshots). On failure the state of the last completed step is kept.
+    /// snapshots). On failure `steps_done` and `history` stop at the last completed step;
+    /// the particles hold the state of the failing step at the moment it was detected.
     pub fn run(
         &mut self,
         n_steps: usize,

@@ -34,7 +34,11 @@ impl ColumnCompaction {
         let gravity = scenario.problem.gravity.unwrap_or(-200.0);
         require_positive("problem.length", length)?;
         if !gravity.is_finite() {
-            return Err(Error::invalid("problem.gravity", gravity, "must be finite"));
+            return Err(Error::invalid(
+                "problem.gravity",
+                crate::config::display_float(gravity),
+                "must be finite",
+            ));
         }
         Ok(Self {
             length,

@@ -86,7 +86,7 @@ pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     let reject = |key: &str, value: Option<f64>, kind: &str| match value {
         Some(v) => Err(Error::invalid(
             key,
-            v,
+            crate::config::display_float(v),
             format!("not used by problem.kind = \"{kind}\""),
         )),
         None => Ok(()),

@@ -38,7 +38,7 @@ impl VibratingBar {
         if !v0.is_finite() {
             return Err(crate::error::Error::invalid(
                 "problem.v0",
-                v0,
+                crate::config::display_float(v0),
                 "must be finite",
             ));
         }

@@ -1,0 +1,389 @@
+//! The command line's error contract (DESIGN §2), checked on the `tlsmpm` binary itself:
+//! bad input (unreadable scenario, invalid TOML, unknown keys, non-positive values, an
+//! unstable time step, unavailable methods, bad flags) exits with code 2 and one clear
+//! `stderr` line naming the key and value, never a panic; a numerical failure exits with
+//! code 1 after writing `summary.json` (status `"failed"`), `particles.csv` and
+//! `history.csv`; and the normal runs (`run FILE`, `run NAME`, `list`) exit with code 0.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tempfile::TempDir;
+
+/// Exit code and captured output of one `tlsmpm` invocation.
+struct Outcome {
+    code: i32,
+    stdout: String,
+    stderr: String,
+}
+
+/// Run `tlsmpm ARGS...` from the crate root (so `scenarios/...` resolves).
+fn tlsmpm<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Outcome {
+    let output = Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("start tlsmpm");
+    Outcome {
+        code: output
+            .status
+            .code()
+            .unwrap_or_else(|| panic!("tlsmpm killed by a signal: {:?}", output.status)),
+        stdout: String::from_utf8_lossy(&output.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+    }
+}
+
+/// `tlsmpm run SCENARIO --quiet --out OUT --set S... FLAGS...`.
+fn run(scenario: &str, out: &Path, sets: &[&str], flags: &[&str]) -> Outcome {
+    let mut args: Vec<String> = vec![
+        "run".into(),
+        scenario.into(),
+        "--quiet".into(),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    for set in sets {
+        args.push("--set".into());
+        args.push((*set).into());
+    }
+    args.extend(flags.iter().map(|f| f.to_string()));
+    tlsmpm(&args)
+}
+
+fn tempdir() -> TempDir {
+    tempfile::tempdir().expect("temporary directory")
+}
+
+/// The single, non-empty, panic-free `stderr` line of a failed invocation.
+fn error_line(o: &Outcome) -> &str {
+    let err = &o.stderr;
+    assert!(
+        !err.contains("panicked") && !err.contains("RUST_BACKTRACE"),
+        "panic on stderr:\n{err}"
+    );
+    let line = err.trim_end_matches('\n');
+    assert!(!line.trim().is_empty(), "empty stderr (exit {})", o.code);
+    assert!(!line.contains('\n'), "more than one stderr line:\n{err}");
+    assert!(line.starts_with("error: "), "unexpected stderr: {line}");
+    line
+}
+
+/// Assert `line` contains every needle (ASCII case-insensitive, so `nan` matches `NaN`).
+fn assert_names(line: &str, needles: &[&str]) {
+    let lower = line.to_ascii_lowercase();
+    for needle in needles {
+        assert!(
+            lower.contains(&needle.to_ascii_lowercase()),
+            "stderr does not name `{needle}`: {line}"
+        );
+    }
+}
+
+/// Run a scenario that must be rejected as bad input: exit code 2, one line naming every
+/// needle, and no results written.
+fn expect_input_error(scenario: &str, sets: &[&str], flags: &[&str], needles: &[&str]) {
+    let dir = tempdir();
+    let out = dir.path().join("out");
+    let o = run(scenario, &out, sets, flags);
+    let context = format!("run {scenario} {sets:?} {flags:?}");
+    assert_eq!(o.code, 2, "{context}: exit code; stderr: {}", o.stderr);
+    assert_names(error_line(&o), needles);
+    assert!(
+        !out.join("summary.json").exists(),
+        "{context}: bad input must not write results"
+    );
+}
+
+/// Write `text` to `dir/name` and return its path as a string.
+fn write_file(dir: &TempDir, name: &str, text: impl AsRef<[u8]>) -> String {
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).expect("write scenario file");
+    path.display().to_string()
+}
+
+/// The shipped vibrating-bar scenario with `cells = 40` replaced by `cells`.
+fn bar_with_grid(cells: &str) -> String {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/vibrating_bar.toml"),
+    )
+    .expect("read vibrating_bar.toml");
+    assert!(text.contains("cells = 40"));
+    text.replace("cells = 40", cells)
+}
+
+const BAR: &str = "scenarios/vibrating_bar.toml";
+const COLUMN: &str = "scenarios/column_compaction.toml";
+const TINY: &str = "grid.cells=5";
+
+/// The step number in `... at step N ...`.
+fn failed_step(message: &str) -> usize {
+    let (_, rest) = message
+        .split_once("step ")
+        .unwrap_or_else(|| panic!("no `step N` in: {message}"));
+    let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+    digits
+        .parse()
+        .unwrap_or_else(|_| panic!("no step number in: {message}"))
+}
+
+/// Run a scenario that must fail numerically: exit code 1, one line naming the step, and
+/// the state of the completed steps in `summary.json`, `particles.csv` and `history.csv`.
+fn expect_numerical_failure(scenario: &str, sets: &[&str], flags: &[&str]) {
+    let dir = tempdir();
+    let out = dir.path().join("out");
+    let o = run(scenario, &out, sets, flags);
+    let context = format!("run {scenario} {sets:?} {flags:?}");
+    assert_eq!(o.code, 1, "{context}: exit code; stderr: {}", o.stderr);
+    let line = error_line(&o);
+    let step = failed_step(line);
+    assert!(step >= 1, "{context}: {line}");
+
+    let read = |name: &str| {
+        std::fs::read_to_string(out.join(name))
+            .unwrap_or_else(|e| panic!("{context}: {name} not written after failure: {e}"))
+    };
+    let summary: serde_json::Value =
+        serde_json::from_str(&read("summary.json")).expect("summary.json is JSON");
+    assert_eq!(summary["status"], "failed", "{context}: {summary}");
+    let failure = summary["failure"].as_str().expect("failure message");
+    assert!(line.contains(failure), "{context}: `{failure}` vs `{line}`");
+    assert_eq!(failed_step(failure), step);
+    let completed = step - 1;
+    assert_eq!(summary["n_steps"], completed, "{context}: {summary}");
+    assert_eq!(summary["failed_step"], step, "{context}: {summary}");
+
+    let particles = read("particles.csv");
+    let n_particles = summary["n_particles"].as_u64().expect("n_particles") as usize;
+    assert!(particles.starts_with("x0,x,u,v,stress,volume,density,mass"));
+    assert_eq!(particles.lines().count(), 1 + n_particles, "{context}");
+
+    let history = read("history.csv");
+    assert!(history.starts_with("step,time,"));
+    assert_eq!(history.lines().count(), 1 + completed, "{context}");
+}
+
+// ---- 1. missing or unreadable scenario ------------------------------------------------
+
+#[test]
+fn missing_scenario_file_is_bad_input() {
+    expect_input_error(
+        "scenarios/no_such_scenario.toml",
+        &[],
+        &[],
+        &["cannot read", "scenarios/no_such_scenario.toml"],
+    );
+}
+
+#[test]
+fn unreadable_scenarios_are_bad_input() {
+    // A directory cannot be read as a file, even by root.
+    expect_input_error("scenarios", &[], &[], &["cannot read", "scenarios"]);
+    // Nor can bytes that are not UTF-8 be read as TOML text.
+    let dir = tempdir();
+    let binary = write_file(&dir, "binary.toml", [0xff_u8, 0xfe, 0x00, 0x80]);
+    expect_input_error(&binary, &[], &[], &["cannot read", &binary]);
+}
+
+// ---- 2. invalid TOML ------------------------------------------------------------------
+
+#[test]
+fn toml_syntax_error_is_bad_input_with_its_line() {
+    let dir = tempdir();
+    let bad = write_file(
+        &dir,
+        "bad.toml",
+        "[problem]\nkind = \"vibrating_bar\"\n[grid\ncells = 5\n",
+    );
+    expect_input_error(&bad, &[], &[], &["invalid scenario", &bad, "line 3"]);
+}
+
+// ---- 3. unknown keys ------------------------------------------------------------------
+
+#[test]
+fn unknown_key_in_file_names_the_dotted_key() {
+    let dir = tempdir();
+    let file = write_file(&dir, "typo.toml", bar_with_grid("cells = 5\ncelss = 3"));
+    expect_input_error(&file, &[], &[], &["unknown key", "`grid.celss`"]);
+}
+
+#[test]
+fn unknown_key_via_set_names_the_dotted_key() {
+    for (set, key) in [
+        ("material.young=1", "`material.young`"),
+        ("grid.celss=3", "`grid.celss`"),
+        ("solvr.kind=cg", "`solvr`"),
+    ] {
+        expect_input_error(BAR, &[TINY, set], &[], &["unknown key", key]);
+    }
+}
+
+// ---- 4. non-positive values -----------------------------------------------------------
+
+#[test]
+fn non_positive_values_name_the_key_and_value() {
+    let keys = [
+        "grid.cells",
+        "particles.per_cell",
+        "material.density",
+        "material.youngs_modulus",
+        "time.dt",
+    ];
+    for key in keys {
+        for value in ["0", "-1"] {
+            let set = format!("{key}={value}");
+            expect_input_error(BAR, &[TINY, &set], &[], &[key, value]);
+        }
+    }
+    for value in ["nan", "inf", "-inf"] {
+        let set = format!("time.dt={value}");
+        expect_input_error(BAR, &[TINY, &set], &[], &["time.dt", value]);
+    }
+    expect_input_error(BAR, &[TINY, "time.dt=abc"], &[], &["time.dt", "abc"]);
+}
+
+// ---- 5. stability limit ---------------------------------------------------------------
+
+#[test]
+fn time_step_above_stability_limit_needs_force() {
+    // h / c = (50 m / 50) / sqrt(1e6 Pa / 1 kg/m³) = 1e-3 s.
+    expect_input_error(
+        COLUMN,
+        &["time.dt=0.01"],
+        &[],
+        &["`time.dt`", "1e-2", "1e-3", "--force"],
+    );
+    let dir = tempdir();
+    let o = run(COLUMN, dir.path(), &["time.dt=0.01"], &["--force"]);
+    assert_ne!(o.code, 2, "--force must run: {}", o.stderr);
+    assert!(
+        !o.stderr.contains("panicked") && !o.stderr.contains("RUST_BACKTRACE"),
+        "panic on stderr:\n{}",
+        o.stderr
+    );
+    if o.code != 0 {
+        assert_eq!(o.code, 1, "stderr: {}", o.stderr);
+        error_line(&o);
+    }
+}
+
+// ---- 6. numerical failure -------------------------------------------------------------
+
+#[test]
+fn forced_unstable_run_fails_with_partial_output() {
+    // 100 times the stability limit (h / c = 10 m / 1000 m/s): a particle leaves the grid
+    // within a few steps.
+    expect_numerical_failure(
+        COLUMN,
+        &[TINY, "particles.per_cell=2", "time.dt=0.1"],
+        &["--force"],
+    );
+}
+
+#[test]
+fn non_finite_stress_fails_with_partial_output() {
+    // A finite but absurd initial velocity overflows the stress in the first step.
+    expect_numerical_failure(BAR, &[TINY, "problem.v0=1e308"], &[]);
+}
+
+#[test]
+fn unwritable_output_directory_is_exit_code_1() {
+    let dir = tempdir();
+    let file = dir.path().join("file");
+    std::fs::write(&file, "not a directory").expect("write file");
+    let out: PathBuf = file.join("out");
+    let o = run(BAR, &out, &[TINY], &[]);
+    assert_eq!(o.code, 1, "stderr: {}", o.stderr);
+    assert_names(
+        error_line(&o),
+        &["cannot write", &out.display().to_string()],
+    );
+}
+
+// ---- 7. bad flags ---------------------------------------------------------------------
+
+#[test]
+fn zero_threads_is_bad_input() {
+    expect_input_error(BAR, &[TINY], &["--threads", "0"], &["--threads", "0"]);
+}
+
+#[test]
+fn malformed_set_is_bad_input() {
+    expect_input_error(
+        BAR,
+        &["grid.cells"],
+        &[],
+        &["--set", "grid.cells", "KEY=VALUE"],
+    );
+    expect_input_error(BAR, &["=5"], &[], &["--set", "empty key"]);
+    expect_input_error(
+        BAR,
+        &["grid.cells.x=1"],
+        &[],
+        &["grid.cells.x", "not a table"],
+    );
+}
+
+// ---- 8. documented but unavailable methods --------------------------------------------
+
+#[test]
+fn unavailable_methods_name_their_key() {
+    for (set, key, value) in [
+        ("method.basis=bspline", "`method.basis`", "bspline"),
+        (
+            "method.reconstruction=tls",
+            "`method.reconstruction`",
+            "tls",
+        ),
+        ("method.mass=consistent", "`method.mass`", "consistent"),
+        ("problem.kind=mms_bar", "`problem.kind`", "mms_bar"),
+    ] {
+        expect_input_error(BAR, &[TINY, set], &[], &[key, value, "not available"]);
+    }
+}
+
+// ---- 9. positive controls -------------------------------------------------------------
+
+/// A successful run into a fresh directory: exit code 0, the stable files written.
+fn expect_success(scenario: &str, sets: &[&str]) {
+    let dir = tempdir();
+    let o = run(scenario, dir.path(), sets, &[]);
+    assert_eq!(o.code, 0, "run {scenario}: stderr: {}", o.stderr);
+    assert!(
+        o.stderr.is_empty(),
+        "quiet run wrote to stderr: {}",
+        o.stderr
+    );
+    for name in ["summary.json", "particles.csv", "history.csv", "stress.svg"] {
+        assert!(dir.path().join(name).is_file(), "run {scenario}: no {name}");
+    }
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("summary.json")).expect("read summary.json"),
+    )
+    .expect("summary.json is JSON");
+    assert_eq!(summary["status"], "completed", "{summary}");
+}
+
+#[test]
+fn scenario_file_runs() {
+    expect_success(BAR, &[]);
+}
+
+#[test]
+fn builtin_scenario_runs_by_name() {
+    expect_success("vibrating_bar", &[]);
+}
+
+#[test]
+fn list_shows_the_builtin_scenarios() {
+    let o = tlsmpm(&["list"]);
+    assert_eq!(o.code, 0, "stderr: {}", o.stderr);
+    for name in ["vibrating_bar", "vibrating_bar_large", "column_compaction"] {
+        assert!(
+            o.stdout
+                .lines()
+                .any(|l| l.split_whitespace().next() == Some(name)),
+            "`tlsmpm list` does not list {name}:\n{}",
+            o.stdout
+        );
+    }
+}
