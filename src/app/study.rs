@@ -169,7 +169,7 @@ fn convergence_plot(path: &Path, name: &str, rows: &[StudyRow]) -> Result<()> {
             label,
             x: &h,
             y,
-            style: Style::Line,
+            style: Style::LinePoints,
         })
         .collect();
     let title = format!("{name}: convergence");

@@ -67,6 +67,8 @@ pub enum Style {
     Line,
     /// A small filled circle at each point.
     Points,
+    /// A polyline with a filled circle at each point, in the same colour.
+    LinePoints,
 }
 
 /// One named data series.
@@ -363,7 +365,8 @@ fn legend_corner(
             let mut previous: Option<(f64, f64)> = None;
             for &p in run {
                 let (u, v) = normalise(p);
-                if let (Style::Line, Some((pu, pv))) = (series.style, previous) {
+                if let (Style::Line | Style::LinePoints, Some((pu, pv))) = (series.style, previous)
+                {
                     for i in 1..SAMPLES {
                         let t = f64::from(i) / f64::from(SAMPLES);
                         count((pu + t * (u - pu), pv + t * (v - pv)));
@@ -485,20 +488,19 @@ where
         for (i, series) in data.iter().enumerate() {
             let colour = PALETTE[i % PALETTE.len()];
             for run in &series.runs {
-                match (series.style, run.len()) {
-                    (Style::Line, n) if n > 1 => {
-                        chart.draw_series(LineSeries::new(
-                            run.iter().copied(),
-                            colour.stroke_width(LINE_WIDTH),
-                        ))?;
-                    }
-                    // Points, and isolated points of a line, as filled circles.
-                    _ => {
-                        chart.draw_series(
-                            run.iter()
-                                .map(|&p| Circle::new(p, POINT_RADIUS, colour.filled())),
-                        )?;
-                    }
+                let line = matches!(series.style, Style::Line | Style::LinePoints);
+                if line && run.len() > 1 {
+                    chart.draw_series(LineSeries::new(
+                        run.iter().copied(),
+                        colour.stroke_width(LINE_WIDTH),
+                    ))?;
+                }
+                // Points, marked lines, and isolated points of a line, as filled circles.
+                if series.style != Style::Line || run.len() == 1 {
+                    chart.draw_series(
+                        run.iter()
+                            .map(|&p| Circle::new(p, POINT_RADIUS, colour.filled())),
+                    )?;
                 }
             }
             if series.label.is_empty() {
@@ -513,7 +515,7 @@ where
                         PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(LINE_WIDTH))
                     });
                 }
-                Style::Points => {
+                Style::Points | Style::LinePoints => {
                     anno.legend(move |(x, y)| {
                         Circle::new((x + 10, y), POINT_RADIUS, colour.filled())
                     });
