@@ -56,6 +56,28 @@ pub struct ProblemConfig {
     /// Column compaction: final signed body acceleration in m/s² (default -200).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity: Option<f64>,
+    /// What the errors are measured against: the exact solution (default) or the
+    /// updated-Lagrangian FEM reference.
+    #[serde(default)]
+    pub reference: ReferenceKind,
+    /// Nodes (DOFs) of the ULFEM reference (default 120).
+    #[serde(default = "default_reference_dofs")]
+    pub reference_dofs: usize,
+}
+
+/// `problem.reference`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceKind {
+    /// The problem's exact solution (none for the large-strain bar).
+    #[default]
+    Exact,
+    /// The updated-Lagrangian FEM solution with `problem.reference_dofs` nodes (SPEC §6.3).
+    Ulfem,
+}
+
+fn default_reference_dofs() -> usize {
+    120
 }
 
 /// Constitutive models (SPEC §1).
@@ -536,11 +558,27 @@ impl Scenario {
         if let Some(length) = self.problem.length {
             require_positive("problem.length", length)?;
         }
-        if self.method.basis == BasisKind::Bspline && self.method.order == 0 {
+        let max_order = crate::grid::bspline::MAX_ORDER;
+        if self.method.basis == BasisKind::Bspline && !(1..=max_order).contains(&self.method.order)
+        {
             return Err(Error::invalid(
                 "method.order",
-                0,
-                "B-spline order must be >= 1",
+                self.method.order,
+                format!("B-spline order must be between 1 and {max_order}"),
+            ));
+        }
+        if self.problem.reference == ReferenceKind::Ulfem && self.problem.reference_dofs < 2 {
+            return Err(Error::invalid(
+                "problem.reference_dofs",
+                self.problem.reference_dofs,
+                "the ULFEM reference needs at least 2 nodes",
+            ));
+        }
+        if self.problem.reference_dofs > MAX_PARTICLES {
+            return Err(Error::invalid(
+                "problem.reference_dofs",
+                self.problem.reference_dofs,
+                format!("more than {MAX_PARTICLES:e}"),
             ));
         }
         self.check_available()
@@ -565,13 +603,6 @@ impl Scenario {
             MaterialModel::NeoHookean => return not_yet("material.model", "neo_hookean"),
             MaterialModel::TwoPhase => return not_yet("material.model", "two_phase"),
             _ => {}
-        }
-        match self.method.basis {
-            BasisKind::Linear => {}
-            BasisKind::Ddmpm => return not_yet("method.basis", "ddmpm"),
-            BasisKind::Bspline => return not_yet("method.basis", "bspline"),
-            BasisKind::Gimp => return not_yet("method.basis", "gimp"),
-            BasisKind::Cpdi => return not_yet("method.basis", "cpdi"),
         }
         match self.method.reconstruction {
             ReconstructionKind::None => {}

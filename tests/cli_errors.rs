@@ -250,7 +250,7 @@ fn time_step_above_stability_limit_needs_force() {
         COLUMN,
         &["time.dt=0.01"],
         &[],
-        &["`time.dt`", "1e-2", "1e-3", "--force"],
+        &["`time.dt`", "1e-2", "1.000e-3", "--force"],
     );
     let dir = tempdir();
     let o = run(COLUMN, dir.path(), &["time.dt=0.01"], &["--force"]);
@@ -328,7 +328,6 @@ fn malformed_set_is_bad_input() {
 #[test]
 fn unavailable_methods_name_their_key() {
     for (set, key, value) in [
-        ("method.basis=bspline", "`method.basis`", "bspline"),
         (
             "method.reconstruction=tls",
             "`method.reconstruction`",
@@ -339,6 +338,32 @@ fn unavailable_methods_name_their_key() {
     ] {
         expect_input_error(BAR, &[TINY, set], &[], &[key, value, "not available"]);
     }
+}
+
+#[test]
+fn bspline_order_out_of_range_names_the_key() {
+    for order in ["0", "16"] {
+        expect_input_error(
+            BAR,
+            &[
+                TINY,
+                "method.basis=bspline",
+                &format!("method.order={order}"),
+            ],
+            &[],
+            &["`method.order`", order, "between 1 and 15"],
+        );
+    }
+    expect_input_error(
+        BAR,
+        &[
+            TINY,
+            "problem.reference=\"ulfem\"",
+            "problem.reference_dofs=1",
+        ],
+        &[],
+        &["`problem.reference_dofs`", "at least 2"],
+    );
 }
 
 // ---- 9. positive controls -------------------------------------------------------------

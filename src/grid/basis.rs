@@ -67,14 +67,50 @@ pub trait Basis: Sync + Send {
     /// Evaluate the non-zero functions and gradients at `x`, which lies in cell `cell`.
     fn eval(&self, cell: usize, x: f64, shape: &mut Shape);
 
+    /// Evaluate at a particle whose domain is `[x - half_length, x + half_length]`
+    /// (`half_length = V_p / 2` in 1D). Point bases ignore the domain (the default);
+    /// GIMP and CPDI average over it.
+    #[inline]
+    fn eval_particle(&self, cell: usize, x: f64, half_length: f64, shape: &mut Shape) {
+        let _ = half_length;
+        self.eval(cell, x, shape);
+    }
+
+    /// Whether [`Basis::update`] must run before every step (bases that depend on the
+    /// particle configuration, like the DDMPM gradient).
+    fn depends_on_particles(&self) -> bool {
+        false
+    }
+
+    /// Recompute what depends on the particle configuration. Default: nothing.
+    fn update(&mut self, quadrature: ParticleQuadrature<'_>) {
+        let _ = quadrature;
+    }
+
     /// The DOFs on the left and right ends of the domain (for Dirichlet conditions).
     fn boundary_dofs(&self) -> (usize, usize) {
         (0, self.num_dofs() - 1)
     }
+}
 
-    /// Ratio of the critical time step of this basis to `h / c` of linear elements with a
-    /// lumped mass matrix.
-    fn stability_factor(&self) -> f64 {
-        1.0
+/// The particle configuration as a quadrature rule: points `x`, weights `volume`, sorted by
+/// cell with the particles of cell `e` at `cell_start[e]..cell_start[e + 1]`.
+#[derive(Clone, Copy, Debug)]
+pub struct ParticleQuadrature<'a> {
+    pub x: &'a [f64],
+    pub volume: &'a [f64],
+    pub cell_start: &'a [usize],
+}
+
+impl ParticleQuadrature<'_> {
+    /// The particles of cell `cell`.
+    #[inline]
+    pub fn range(&self, cell: usize) -> std::ops::Range<usize> {
+        self.cell_start[cell]..self.cell_start[cell + 1]
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.cell_start.len().saturating_sub(1)
     }
 }

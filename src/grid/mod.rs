@@ -1,13 +1,23 @@
 //! The background grid and its bases (SPEC §3).
 //!
 //! [`Grid`] is the uniform 1D mesh of `N_e` cells (knot spans) on `[origin, origin + L]`;
-//! [`Basis`] is the plug point for the grid functions (linear hats now; DDMPM gradients,
-//! B-splines of any order, GIMP and CPDI implement the same trait).
+//! [`Basis`] is the plug point for the grid functions: linear hats ([`LinearBasis`]), the
+//! dual-domain gradient ([`DdmpmBasis`]), B-splines of any order ([`BSplineBasis`]), and the
+//! particle-domain bases GIMP ([`GimpBasis`]) and CPDI ([`CpdiBasis`]).
 
 pub mod basis;
+pub mod bspline;
+pub mod cpdi;
+pub mod ddmpm;
+mod domain;
+pub mod gimp;
 pub mod linear;
 
-pub use basis::{Basis, Shape, MAX_SUPPORT};
+pub use basis::{Basis, ParticleQuadrature, Shape, MAX_SUPPORT};
+pub use bspline::BSplineBasis;
+pub use cpdi::CpdiBasis;
+pub use ddmpm::DdmpmBasis;
+pub use gimp::GimpBasis;
 pub use linear::LinearBasis;
 
 /// A uniform 1D grid of `cells` cells of size `h` starting at `origin`.

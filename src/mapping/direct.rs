@@ -43,7 +43,7 @@ impl Mapping for DirectMapping {
             |cell, first, [m_local, f_local]| {
                 let mut shape = Shape::default();
                 for p in bins.range(cell) {
-                    basis.eval(cell, x[p], &mut shape);
+                    basis.eval_particle(cell, x[p], 0.5 * volume[p], &mut shape);
                     let offset = shape.first - first;
                     let (m, sv) = (mass[p], stress[p] * volume[p]);
                     for k in 0..shape.len {
@@ -62,7 +62,12 @@ impl Mapping for DirectMapping {
         bins: &CellBins,
         grid: &mut GridFields,
     ) {
-        let (x, mass, v) = (&particles.x, &particles.mass, &particles.v);
+        let (x, mass, v, volume) = (
+            &particles.x,
+            &particles.mass,
+            &particles.v,
+            &particles.volume,
+        );
         self.scatter.scatter(
             basis,
             bins,
@@ -70,7 +75,7 @@ impl Mapping for DirectMapping {
             |cell, first, [p_local]| {
                 let mut shape = Shape::default();
                 for p in bins.range(cell) {
-                    basis.eval(cell, x[p], &mut shape);
+                    basis.eval_particle(cell, x[p], 0.5 * volume[p], &mut shape);
                     let offset = shape.first - first;
                     let mv = mass[p] * v[p];
                     for k in 0..shape.len {

@@ -4,6 +4,7 @@
 pub mod boundary;
 pub mod material;
 pub mod simulation;
+pub mod stability;
 pub mod step;
 
 pub use boundary::Boundary;

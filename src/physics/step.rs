@@ -11,6 +11,8 @@
 //! 7. sigma_p = law(sigma_p, deps_p)
 //! 8. V_p *= 1 + deps_p, rho_p /= 1 + deps_p
 //! ```
+//! Bases that depend on the particle configuration (DDMPM) are updated from it before
+//! step 1, and particle-domain bases (GIMP, CPDI) are evaluated with `l_p = V_p / 2`;
 //! then the particles are re-binned (counting sort) and grid crossings counted. The
 //! conservation errors of the mapping are measured each step (SPEC §6): mass
 //! `|sum_i m_i - sum_p m_p| / sum_p m_p` after step 1, momentum
@@ -19,7 +21,7 @@
 
 use crate::config::Scheme;
 use crate::error::{Error, Result};
-use crate::grid::{Basis, Grid, Shape};
+use crate::grid::{Basis, Grid, ParticleQuadrature, Shape};
 use crate::mapping::{GridFields, Mapping};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, Particles};
@@ -69,6 +71,10 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
     ) -> Self {
         let mut bins = CellBins::default();
         bins.sort(particles, grid.cells);
+        let mut basis = basis;
+        if basis.depends_on_particles() {
+            basis.update(quadrature(particles, &bins));
+        }
         let total_mass = deterministic_sum(particles.len(), |p| particles.mass[p]);
         let fields = GridFields::new(basis.num_dofs());
         Self {
@@ -96,6 +102,9 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
     ) -> Result<StepReport> {
         let dt = self.dt;
         let ends = self.basis.boundary_dofs();
+        if self.basis.depends_on_particles() {
+            self.basis.update(quadrature(particles, &self.bins));
+        }
         let fields = &mut self.fields;
 
         // 1. Mass, internal and external force.
@@ -197,6 +206,15 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
     }
 }
 
+/// The particles as the quadrature rule of configuration-dependent bases.
+fn quadrature<'a>(particles: &'a Particles, bins: &'a CellBins) -> ParticleQuadrature<'a> {
+    ParticleQuadrature {
+        x: &particles.x,
+        volume: &particles.volume,
+        cell_start: &bins.cell_start,
+    }
+}
+
 /// `|sum_i m_i v_i - sum_p m_p v_p| / sum_p m_p |v_p|` with `v_i = p_i / m_i`.
 fn momentum_error(particles: &Particles, fields: &GridFields) -> Option<f64> {
     let n = particles.len();
@@ -230,7 +248,7 @@ fn update_particle_velocities<B: Basis>(
     acceleration: &[f64],
     dt: f64,
 ) {
-    let (x, cell) = (&particles.x, &particles.cell);
+    let (x, cell, volume) = (&particles.x, &particles.cell, &particles.volume);
     particles
         .v
         .par_chunks_mut(PARTICLES_PER_TASK)
@@ -240,7 +258,7 @@ fn update_particle_velocities<B: Basis>(
             let mut shape = Shape::default();
             for (k, v) in v.iter_mut().enumerate() {
                 let p = start + k;
-                basis.eval(cell[p], x[p], &mut shape);
+                basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut shape);
                 *v += dt * shape.interpolate(acceleration);
             }
         });
@@ -287,7 +305,7 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
             let mut crossings = 0usize;
             let mut failure = None;
             for k in 0..x.len() {
-                basis.eval(cell[k], x[k], &mut shape);
+                basis.eval_particle(cell[k], x[k], 0.5 * volume[k], &mut shape);
                 let du = dt * shape.interpolate(velocity);
                 let deps = dt * shape.gradient(velocity);
                 u[k] += du;

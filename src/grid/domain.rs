@@ -1,0 +1,87 @@
+//! Shared geometry of the particle-domain bases (GIMP, CPDI; SPEC §3.5): the particle
+//! domain `[x_p - l_p, x_p + l_p]` on the linear-hat grid.
+//!
+//! In 1D the domain half-length is `l_p = V_p / 2`, the current particle volume. For CPDI
+//! this is exactly the domain whose corners are convected with the grid displacement: with
+//! corner-averaged weights, `x_p` moves by the mean corner displacement and
+//! `V_p (1 + deps_p) = V_p + du(x_2) - du(x_1)`, so `x_p` stays the domain midpoint and `V_p`
+//! its length. For GIMP it is the "contiguous particle" variant (cpGIMP).
+//!
+//! The domain is clipped to the grid (its outside part carries no material), and its
+//! half-length is capped at one cell `h`, so a point of cell `e` touches the DOFs
+//! `e - 1 ..= e + 2` at most (a documented limit: particles stretched beyond twice the cell
+//! size are integrated over the central `2h` of their domain).
+
+use super::Grid;
+
+/// The clipped domain `[x_1, x_2]` of a particle at `x` with half-length `half_length`, or
+/// `None` when it is (numerically) a point.
+#[inline]
+pub(crate) fn clipped_domain(grid: &Grid, x: f64, half_length: f64) -> Option<(f64, f64)> {
+    let l = half_length.min(grid.h);
+    let x1 = (x - l).max(grid.origin);
+    let x2 = (x + l).min(grid.origin + grid.length);
+    (x2 - x1 > 1e-12 * grid.h).then_some((x1, x2))
+}
+
+/// The DOF window of cell `cell` for a domain basis: `e - 1 ..= e + 2`, clipped.
+#[inline]
+pub(crate) fn domain_window(grid: &Grid, cell: usize) -> (usize, usize) {
+    let first = cell.saturating_sub(1);
+    let last = (cell + 2).min(grid.cells);
+    (first, last + 1 - first)
+}
+
+/// Hat function of node `node` at `x` (unclipped: non-zero on `[X_{node-1}, X_{node+1}]`).
+#[inline]
+pub(crate) fn hat(grid: &Grid, node: usize, x: f64) -> f64 {
+    let s = (x - grid.cell_left(node)) * grid.inv_h;
+    (1.0 - s.abs()).max(0.0)
+}
+
+/// `int_{-inf}^{x} hat_node`, in units of `h` (0 left of the support, 1 right of it).
+#[inline]
+pub(crate) fn hat_antiderivative(grid: &Grid, node: usize, x: f64) -> f64 {
+    let s = (x - grid.cell_left(node)) * grid.inv_h;
+    if s <= -1.0 {
+        0.0
+    } else if s <= 0.0 {
+        0.5 * (s + 1.0) * (s + 1.0)
+    } else if s <= 1.0 {
+        1.0 - 0.5 * (1.0 - s) * (1.0 - s)
+    } else {
+        1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn antiderivative_integrates_the_hat() {
+        let grid = Grid::new(2.0, 8);
+        let node = 3;
+        let (a, b) = (0.5, 1.05);
+        let n = 100_000;
+        let dx = (b - a) / n as f64;
+        let midpoint: f64 = (0..n)
+            .map(|k| hat(&grid, node, a + (k as f64 + 0.5) * dx) * dx)
+            .sum();
+        let exact =
+            (hat_antiderivative(&grid, node, b) - hat_antiderivative(&grid, node, a)) * grid.h;
+        assert!((midpoint - exact).abs() < 1e-9, "{midpoint} vs {exact}");
+    }
+
+    #[test]
+    fn domain_is_clipped_and_capped() {
+        let grid = Grid::new(1.0, 10);
+        assert_eq!(clipped_domain(&grid, 0.02, 0.05), Some((0.0, 0.07)));
+        let (x1, x2) = clipped_domain(&grid, 0.5, 3.0).unwrap();
+        assert!((x1 - 0.4).abs() < 1e-15 && (x2 - 0.6).abs() < 1e-15);
+        assert_eq!(clipped_domain(&grid, 0.5, 0.0), None);
+        assert_eq!(domain_window(&grid, 0), (0, 3));
+        assert_eq!(domain_window(&grid, 5), (4, 4));
+        assert_eq!(domain_window(&grid, 9), (8, 3));
+    }
+}
