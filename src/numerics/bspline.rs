@@ -172,20 +172,20 @@ mod tests {
             let dsum: f64 = dn[..=p].iter().sum();
             prop_assert!(dsum.abs() < 1e-12 * (p * p) as f64, "dsum {dsum}");
             // Agreement with the naive recursion, function by function.
-            for k in 0..=p {
+            for (k, value) in n[..=p].iter().enumerate() {
                 let reference = naive(span + k, p, p, spans, u);
-                prop_assert!((n[k] - reference).abs() < 1e-14, "k {k}: {} vs {reference}", n[k]);
+                prop_assert!((value - reference).abs() < 1e-14, "k {k}: {value} vs {reference}");
             }
             // Derivative against central differences of the naive recursion, away from
             // knots (where derivatives of degree-1 splines jump).
             let eps = 1e-6;
             let frac = u - span as f64;
             if frac > 2.0 * eps && frac < 1.0 - 2.0 * eps {
-                for k in 0..=p {
+                for (k, derivative) in dn[..=p].iter().enumerate() {
                     let fd = (naive(span + k, p, p, spans, u + eps)
                         - naive(span + k, p, p, spans, u - eps)) / (2.0 * eps);
-                    prop_assert!((dn[k] - fd).abs() < 1e-6 * (1.0 + fd.abs()),
-                        "k {k}: {} vs {fd}", dn[k]);
+                    prop_assert!((derivative - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+                        "k {k}: {derivative} vs {fd}");
                 }
             }
         }
