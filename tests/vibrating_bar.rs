@@ -112,3 +112,81 @@ fn exact_solution_errors_shrink_with_resolution_and_are_reported_per_field() {
         assert!(rel.is_finite() && rel > 0.0 && rel < 0.05, "{field}: {rel}");
     }
 }
+
+#[test]
+fn lumped_bsmpm_has_the_published_boundary_error() {
+    // Quadratic B-splines with row-sum lumped mass (SPEC §6.2, IJNME Fig. 7): second order
+    // in the interior, but the open-knot boundary spans carry an error that does not
+    // shrink (the lumped projection puts v_1 at the centroid 3h/4 of N_1 instead of its
+    // Greville abscissa h/2), so the RMS orders of u and sigma fall below 2 and 1.
+    let bsmpm = ["method.basis=\"bspline\"", "method.order=2", "time.dt=1e-8"];
+    let rows = study(scenario("vibrating_bar", &bsmpm), &CELLS);
+    assert_orders(
+        "displacement",
+        &orders(&rows, Field::Displacement)[1..],
+        1.3,
+        1.8,
+    );
+    assert_orders("stress", &orders(&rows, Field::Stress)[1..], 0.3, 0.7);
+
+    // Where the error lives: the first knot span against the middle of the bar.
+    let mut overrides = bsmpm.to_vec();
+    overrides.push("grid.cells=40");
+    let sc = scenario("vibrating_bar", &overrides);
+    let sim = common::simulate(&sc);
+    let (problem, _) = tlsmpm::app::build_simulation(&sc, false).expect("valid");
+    let t = sim.time();
+    let p = &sim.particles;
+    let error = |k: usize| (p.stress[k] - problem.exact(Field::Stress, p.x0[k], t).unwrap()).abs();
+    let boundary = (0..p.len())
+        .filter(|&k| p.x0[k] < 1.0 / 40.0)
+        .map(error)
+        .fold(0.0, f64::max);
+    let interior = (0..p.len())
+        .filter(|&k| (0.3..0.7).contains(&p.x0[k]))
+        .map(error)
+        .fold(0.0, f64::max);
+    assert!(
+        boundary > 100.0 * interior,
+        "boundary stress error {boundary:e}, interior {interior:e}"
+    );
+}
+
+#[test]
+fn lumped_bsmpm_is_second_order_away_from_the_boundaries() {
+    // RMS errors over 0.3 <= X <= 0.7 (outside the reach of the boundary spans).
+    let mut previous: Option<[f64; 3]> = None;
+    for cells in [10usize, 20, 40] {
+        let key = format!("grid.cells={cells}");
+        let sc = scenario(
+            "vibrating_bar",
+            &["method.basis=\"bspline\"", "time.dt=1e-8", &key],
+        );
+        let sim = common::simulate(&sc);
+        let (problem, _) = tlsmpm::app::build_simulation(&sc, false).expect("valid");
+        let p = &sim.particles;
+        let t = sim.time();
+        let inside: Vec<usize> = (0..p.len())
+            .filter(|&k| (0.3..=0.7).contains(&p.x0[k]))
+            .collect();
+        let rms = |values: &[f64], field: Field, time: f64| {
+            let sum: f64 = inside
+                .iter()
+                .map(|&k| (values[k] - problem.exact(field, p.x0[k], time).unwrap()).powi(2))
+                .sum();
+            (sum / inside.len() as f64).sqrt()
+        };
+        let errors = [
+            rms(&p.u, Field::Displacement, t),
+            rms(&p.v, Field::Velocity, t - 0.5 * sc.time.dt),
+            rms(&p.stress, Field::Stress, t),
+        ];
+        if let Some(prev) = previous {
+            for (f, (a, b)) in prev.iter().zip(&errors).enumerate() {
+                let order = (a / b).log2();
+                assert!((1.8..=2.5).contains(&order), "field {f}: order {order}");
+            }
+        }
+        previous = Some(errors);
+    }
+}

@@ -204,9 +204,67 @@ fn write_outputs(
     write_history(&out_dir.join("history.csv"), &simulation.history)?;
     if scenario.output.plots {
         stress_plot(&out_dir.join("stress.svg"), problem, simulation, &columns)?;
+        if !columns.is_empty() {
+            error_plot(&out_dir.join("errors.svg"), problem, simulation, &columns)?;
+        }
     }
     summary.write(&out_dir.join("summary.json"))?;
     Ok(summary)
+}
+
+/// Error profile: `|f_p - f_exact(X_p)| / max_p |f_exact|` of every known field over the
+/// plot axis; shows where the error lives (e.g. the boundary spans of lumped BSMPM).
+fn error_plot(
+    path: &Path,
+    problem: &dyn Problem,
+    simulation: &Simulation,
+    columns: &[(Field, Vec<f64>)],
+) -> Result<()> {
+    let p = &simulation.particles;
+    let (position, x_label) = match problem.plot_axis() {
+        PlotAxis::Current => (&p.x, "x [m]"),
+        PlotAxis::Initial => (&p.x0, "initial position X [m]"),
+    };
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by(|&a, &b| position[a].total_cmp(&position[b]));
+    let xs: Vec<f64> = order.iter().map(|&k| position[k]).collect();
+    let errors: Vec<(String, Vec<f64>)> = columns
+        .iter()
+        .map(|(field, exact)| {
+            let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let scale = if scale > 0.0 { scale } else { 1.0 };
+            let num = numerical(p, *field);
+            let values = order
+                .iter()
+                .map(|&k| (num[k] - exact[k]).abs() / scale)
+                .collect();
+            (field.name().to_string(), values)
+        })
+        .collect();
+    let series: Vec<Series> = errors
+        .iter()
+        .map(|(label, values)| Series {
+            label,
+            x: &xs,
+            y: values,
+            style: Style::LinePoints,
+        })
+        .collect();
+    let (basis, reconstruction) = simulation.stepper.method_names();
+    let title = format!(
+        "{} ({basis} / {reconstruction}): |error| / max |exact| at t = {:.4e} s",
+        problem.name(),
+        simulation.time()
+    );
+    profile_plot(
+        path,
+        &Axes {
+            title: &title,
+            x_label,
+            y_label: "relative error",
+        },
+        &series,
+    )
 }
 
 /// Stress profile: particles (points) against the exact stress (line), over the current

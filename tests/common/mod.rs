@@ -65,3 +65,26 @@ pub fn pool(threads: usize) -> rayon::ThreadPool {
         .build()
         .expect("thread pool")
 }
+
+/// Build and run a scenario in memory; returns the finished simulation (particles in
+/// bin order, `id` gives the original index).
+pub fn simulate(scenario: &Scenario) -> tlsmpm::physics::Simulation {
+    let (problem, mut simulation) = app::build_simulation(scenario, false).expect("valid scenario");
+    simulation
+        .run(
+            scenario.n_steps(),
+            &|t| problem.body_acceleration(t),
+            &mut |_| Ok(()),
+        )
+        .expect("run succeeds");
+    simulation
+}
+
+/// A particle field in original (id) order.
+pub fn by_id(simulation: &tlsmpm::physics::Simulation, field: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; field.len()];
+    for (k, &id) in simulation.particles.id.iter().enumerate() {
+        out[id] = field[k];
+    }
+    out
+}
