@@ -9,6 +9,7 @@
 //! is the weight of the material above `X_p`.
 
 pub mod column_compaction;
+pub mod ulfem;
 pub mod vibrating_bar;
 
 pub use column_compaction::ColumnCompaction;
