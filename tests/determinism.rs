@@ -13,8 +13,14 @@ fn bits(values: &[f64]) -> Vec<u64> {
 }
 
 fn simulate(threads: usize, steps: usize) -> (Particles, Vec<u64>) {
+    simulate_with(threads, steps, &[])
+}
+
+fn simulate_with(threads: usize, steps: usize, overrides: &[&str]) -> (Particles, Vec<u64>) {
     // Large bar with crossings and re-sorting; enough particles and cells for many tasks.
-    let s = scenario("vibrating_bar_large", &["grid.cells=1000"]);
+    let mut all = vec!["grid.cells=1000"];
+    all.extend_from_slice(overrides);
+    let s = scenario("vibrating_bar_large", &all);
     let (problem, mut sim) = build_simulation(&s, false).expect("build");
     pool(threads)
         .install(|| sim.run(steps, &|t| problem.body_acceleration(t), &mut |_| Ok(())))
@@ -32,6 +38,19 @@ fn simulate(threads: usize, steps: usize) -> (Particles, Vec<u64>) {
         })
         .collect();
     (sim.particles, history)
+}
+
+#[test]
+fn every_basis_gives_the_same_bits_on_one_and_three_threads() {
+    for basis in ["ddmpm", "bspline", "gimp", "cpdi"] {
+        let key = format!("method.basis=\"{basis}\"");
+        let (serial, serial_history) = simulate_with(1, 100, &[&key, "method.order=3"]);
+        let (parallel, parallel_history) = simulate_with(3, 100, &[&key, "method.order=3"]);
+        assert_eq!(serial.id, parallel.id, "{basis}");
+        assert_eq!(bits(&serial.x), bits(&parallel.x), "{basis}");
+        assert_eq!(bits(&serial.stress), bits(&parallel.stress), "{basis}");
+        assert_eq!(serial_history, parallel_history, "{basis}");
+    }
 }
 
 #[test]

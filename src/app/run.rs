@@ -91,8 +91,9 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::invalid("--threads", threads.unwrap_or(0), e.to_string()))
 }
 
-/// Exact values of every known field at every particle, at the current time (velocity at
-/// `t - dt/2` with `output.velocity_reference = "half_step"`).
+/// Exact (or reference) values of every known field at every particle, at the current
+/// time (velocity at `t - dt/2` with `output.velocity_reference = "half_step"`, unless the
+/// reference velocity is itself time-stepped).
 pub fn exact_columns(
     problem: &dyn Problem,
     simulation: &Simulation,
@@ -105,17 +106,14 @@ pub fn exact_columns(
         .iter()
         .map(|&field| {
             let time = match (field, scenario.output.velocity_reference) {
-                (Field::Velocity, VelocityReference::HalfStep) if simulation.steps_done > 0 => {
+                (Field::Velocity, VelocityReference::HalfStep)
+                    if simulation.steps_done > 0 && !problem.velocity_is_time_stepped() =>
+                {
                     t - 0.5 * dt
                 }
                 _ => t,
             };
-            let values = simulation
-                .particles
-                .x0
-                .iter()
-                .map(|&x0| problem.exact(field, x0, time).unwrap_or(f64::NAN))
-                .collect();
+            let values = problem.exact_profile(field, &simulation.particles.x0, time);
             (field, values)
         })
         .collect()
@@ -298,7 +296,7 @@ fn stress_plot(
     }];
     if let Some(exact) = &exact {
         series.push(Series {
-            label: "exact",
+            label: problem.reference_label(),
             x: &xs,
             y: exact,
             style: Style::Line,

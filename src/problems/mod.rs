@@ -1,5 +1,6 @@
 //! Benchmark problems (SPEC §6) with their initial state, boundary conditions, body force
-//! and exact solutions.
+//! and exact solutions, and the ULFEM reference ([`ulfem`], [`reference`]) for problems
+//! without one.
 //!
 //! A [`Problem`] is built from the scenario (`[problem]` keys, with per-problem defaults)
 //! and answers the questions the time loop and the error measures ask. Exact fields are
@@ -9,17 +10,19 @@
 //! is the weight of the material above `X_p`.
 
 pub mod column_compaction;
+pub mod reference;
 pub mod ulfem;
 pub mod vibrating_bar;
 
 pub use column_compaction::ColumnCompaction;
+pub use reference::UlfemReference;
 pub use vibrating_bar::VibratingBar;
 
-use crate::config::{ProblemKind, Scenario};
+use crate::config::{ProblemKind, ReferenceKind, Scenario};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::particles::Particles;
-use crate::physics::Boundary;
+use crate::physics::{Boundary, Material};
 
 /// Fields compared against exact solutions, named as in `summary.json`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -75,14 +78,58 @@ pub trait Problem: Send + Sync {
     fn exact_fields(&self) -> &'static [Field];
     /// Exact value of `field` at material position `x0` and time `t` (`None` if unknown).
     fn exact(&self, field: Field, x0: f64, t: f64) -> Option<f64>;
+    /// Exact values of `field` at many material positions (NaN where unknown).
+    fn exact_profile(&self, field: Field, x0: &[f64], t: f64) -> Vec<f64> {
+        x0.iter()
+            .map(|&x| self.exact(field, x, t).unwrap_or(f64::NAN))
+            .collect()
+    }
+    /// Initial velocity at material position `x0`.
+    fn initial_velocity(&self, x0: f64) -> f64 {
+        let _ = x0;
+        0.0
+    }
+    /// Whether the "exact" velocity is itself time-stepped like the particles' (a
+    /// reference solution): then it is compared at `t`, never at `t - dt/2`.
+    fn velocity_is_time_stepped(&self) -> bool {
+        false
+    }
+    /// Legend label of the exact fields in plots.
+    fn reference_label(&self) -> &'static str {
+        "exact"
+    }
     /// Horizontal axis of the profile plot.
     fn plot_axis(&self) -> PlotAxis {
         PlotAxis::Current
     }
 }
 
-/// Build the problem of a scenario, checking its problem-specific keys.
+/// Build the problem of a scenario, checking its problem-specific keys; with
+/// `problem.reference = "ulfem"` it is wrapped in an [`UlfemReference`].
 pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
+    let problem = build_exact(scenario)?;
+    match scenario.problem.reference {
+        ReferenceKind::Exact => Ok(problem),
+        ReferenceKind::Ulfem => {
+            let material = Material::from_config(&scenario.material).ok_or_else(|| {
+                Error::invalid(
+                    "material.model",
+                    format!("{:?}", scenario.material.model),
+                    "the ULFEM reference needs a one-phase elastic model",
+                )
+            })?;
+            Ok(Box::new(UlfemReference::new(
+                problem,
+                scenario.problem.reference_dofs,
+                scenario.material.density,
+                material,
+                scenario.time.dt,
+            )?))
+        }
+    }
+}
+
+fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     let p = &scenario.problem;
     let reject = |key: &str, value: Option<f64>, kind: &str| match value {
         Some(v) => Err(Error::invalid(

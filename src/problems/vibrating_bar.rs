@@ -68,10 +68,14 @@ impl Problem for VibratingBar {
 
     fn initial_particles(&self, grid: &Grid, per_cell: usize, density: f64) -> Particles {
         let mut particles = Particles::at_subcell_centres(grid, per_cell, density);
-        for (v, x) in particles.v.iter_mut().zip(&particles.x0) {
-            *v = self.v0 * (PI * x / self.length).sin();
+        for (v, &x) in particles.v.iter_mut().zip(&particles.x0) {
+            *v = self.initial_velocity(x);
         }
         particles
+    }
+
+    fn initial_velocity(&self, x0: f64) -> f64 {
+        self.v0 * (PI * x0 / self.length).sin()
     }
 
     fn boundary(&self) -> Boundary {
