@@ -25,6 +25,8 @@
 //! ```
 //!
 //! All denominators that occur on a non-empty span are at least 1, so there is no `0/0`.
+//! On interior spans (all knots involved simple) the level-`j` denominators are all `j`
+//! and the derivative ones `p`, and a division-free fast path is taken.
 //! Knots are small integers, so they are exact in floating point.
 
 /// Highest degree supported by [`open_uniform`] (the stack arrays hold `MAX_DEGREE + 1`).
@@ -66,11 +68,42 @@ pub fn open_uniform(
     let p = degree;
     let values = &mut values[..=p];
     let derivatives = &mut derivatives[..=p];
+    let mut lower = [0.0; MAX_DEGREE + 1];
+    // Interior spans, where every knot involved (span + 1 - p ..= span + p) is a simple
+    // uniform knot: all triangle denominators at level j equal j, and those of the
+    // derivatives equal p, so no division and no knot lookup is needed.
+    if span + 1 >= p && span + p <= spans {
+        let t = u - span as f64;
+        values[0] = 1.0;
+        for j in 1..=p {
+            if j == p {
+                lower[..p].copy_from_slice(&values[..p]);
+            }
+            let inv_j = INVERSE[j];
+            let mut saved = 0.0;
+            for r in 0..j {
+                // left[j - r] = t + j - r - 1, right[r + 1] = r + 1 - t.
+                let temp = values[r] * inv_j;
+                values[r] = saved + (r as f64 + 1.0 - t) * temp;
+                saved = (t + (j - r) as f64 - 1.0) * temp;
+            }
+            values[j] = saved;
+        }
+        if p == 0 {
+            derivatives[0] = 0.0;
+            return;
+        }
+        for (k, d) in derivatives.iter_mut().enumerate() {
+            let below = if k >= 1 { lower[k - 1] } else { 0.0 };
+            let here = if k < p { lower[k] } else { 0.0 };
+            *d = below - here;
+        }
+        return;
+    }
     // Knot index of the span: U_i = span, U_{i+1} = span + 1.
     let i = span + p;
     let mut left = [0.0; MAX_DEGREE + 1];
     let mut right = [0.0; MAX_DEGREE + 1];
-    let mut lower = [0.0; MAX_DEGREE + 1];
     values[0] = 1.0;
     for j in 1..=p {
         if j == p {
@@ -105,6 +138,17 @@ pub fn open_uniform(
         *d = degree_f * dk;
     }
 }
+
+/// `1 / j` for the uniform triangle levels.
+const INVERSE: [f64; MAX_DEGREE + 1] = {
+    let mut inv = [0.0; MAX_DEGREE + 1];
+    let mut j = 1;
+    while j <= MAX_DEGREE {
+        inv[j] = 1.0 / j as f64;
+        j += 1;
+    }
+    inv
+};
 
 #[cfg(test)]
 mod tests {
