@@ -81,10 +81,10 @@ pub fn open_uniform(
             }
             let inv_j = INVERSE[j];
             let mut saved = 0.0;
-            for r in 0..j {
+            for (r, value) in values[..j].iter_mut().enumerate() {
                 // left[j - r] = t + j - r - 1, right[r + 1] = r + 1 - t.
-                let temp = values[r] * inv_j;
-                values[r] = saved + (r as f64 + 1.0 - t) * temp;
+                let temp = *value * inv_j;
+                *value = saved + (r as f64 + 1.0 - t) * temp;
                 saved = (t + (j - r) as f64 - 1.0) * temp;
             }
             values[j] = saved;
