@@ -210,6 +210,18 @@ fn write_outputs(
     Ok(summary)
 }
 
+/// Particle order along the plot axis of `problem`, the sorted positions and the axis label.
+fn plot_positions(problem: &dyn Problem, p: &Particles) -> (Vec<usize>, Vec<f64>, &'static str) {
+    let (position, x_label) = match problem.plot_axis() {
+        PlotAxis::Current => (&p.x, "x [m]"),
+        PlotAxis::Initial => (&p.x0, "initial position X [m]"),
+    };
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by(|&a, &b| position[a].total_cmp(&position[b]));
+    let xs = order.iter().map(|&k| position[k]).collect();
+    (order, xs, x_label)
+}
+
 /// Error profile: `|f_p - f_exact(X_p)| / max_p |f_exact|` of every known field over the
 /// plot axis; shows where the error lives (e.g. the boundary spans of lumped BSMPM).
 fn error_plot(
@@ -219,13 +231,7 @@ fn error_plot(
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
-    let (position, x_label) = match problem.plot_axis() {
-        PlotAxis::Current => (&p.x, "x [m]"),
-        PlotAxis::Initial => (&p.x0, "initial position X [m]"),
-    };
-    let mut order: Vec<usize> = (0..p.len()).collect();
-    order.sort_by(|&a, &b| position[a].total_cmp(&position[b]));
-    let xs: Vec<f64> = order.iter().map(|&k| position[k]).collect();
+    let (order, xs, x_label) = plot_positions(problem, p);
     let errors: Vec<(String, Vec<f64>)> = columns
         .iter()
         .map(|(field, exact)| {
@@ -274,13 +280,7 @@ fn stress_plot(
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
-    let (position, x_label) = match problem.plot_axis() {
-        PlotAxis::Current => (&p.x, "x [m]"),
-        PlotAxis::Initial => (&p.x0, "initial position X [m]"),
-    };
-    let mut order: Vec<usize> = (0..p.len()).collect();
-    order.sort_by(|&a, &b| position[a].total_cmp(&position[b]));
-    let xs: Vec<f64> = order.iter().map(|&k| position[k]).collect();
+    let (order, xs, x_label) = plot_positions(problem, p);
     let stress: Vec<f64> = order.iter().map(|&k| p.stress[k]).collect();
     let exact: Option<Vec<f64>> = columns
         .iter()

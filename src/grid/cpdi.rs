@@ -10,67 +10,29 @@
 //! (the CPDI weights of Sadeghirad et al.; they differ from GIMP's exact averages only when
 //! a node lies inside the domain). Partition of unity and zero gradient sum hold exactly.
 
-use super::domain::{clipped_domain, domain_window, hat};
-use super::{Basis, Grid, LinearBasis, Shape};
+use super::domain::{DomainBasis, DomainWeight};
+use super::Grid;
+
+/// The corner average of the hat.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpdiCorners;
+
+impl DomainWeight for CpdiCorners {
+    const NAME: &'static str = "cpdi";
+
+    #[inline]
+    fn weight(_grid: &Grid, _node: usize, _x1: f64, _x2: f64, hat1: f64, hat2: f64) -> f64 {
+        0.5 * (hat1 + hat2)
+    }
+}
 
 /// CPDI weights on the linear grid.
-#[derive(Clone, Copy, Debug)]
-pub struct CpdiBasis {
-    grid: Grid,
-}
-
-impl CpdiBasis {
-    pub fn new(grid: Grid) -> Self {
-        Self { grid }
-    }
-}
-
-impl Basis for CpdiBasis {
-    fn name(&self) -> &'static str {
-        "cpdi"
-    }
-
-    fn num_dofs(&self) -> usize {
-        self.grid.cells + 1
-    }
-
-    #[inline]
-    fn cell_window(&self, cell: usize) -> (usize, usize) {
-        domain_window(&self.grid, cell)
-    }
-
-    fn max_window(&self) -> usize {
-        4.min(self.grid.cells + 1)
-    }
-
-    #[inline]
-    fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {
-        LinearBasis::new(self.grid).eval(cell, x, shape);
-    }
-
-    #[inline]
-    fn eval_particle(&self, cell: usize, x: f64, half_length: f64, shape: &mut Shape) {
-        let Some((x1, x2)) = clipped_domain(&self.grid, x, half_length) else {
-            return self.eval(cell, x, shape);
-        };
-        let grid = &self.grid;
-        let (first, len) = domain_window(grid, cell);
-        let inv_length = 1.0 / (x2 - x1);
-        for k in 0..len {
-            let node = first + k;
-            let (n1, n2) = (hat(grid, node, x1), hat(grid, node, x2));
-            shape.phi[k] = 0.5 * (n1 + n2);
-            shape.dphi[k] = (n2 - n1) * inv_length;
-        }
-        shape.first = first;
-        shape.len = len;
-    }
-}
+pub type CpdiBasis = DomainBasis<CpdiCorners>;
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::GimpBasis;
+    use crate::grid::{Basis, GimpBasis, Shape};
     use proptest::prelude::*;
 
     proptest! {

@@ -12,7 +12,76 @@
 //! `e - 1 ..= e + 2` at most (a documented limit: particles stretched beyond twice the cell
 //! size are integrated over the central `2h` of their domain).
 
-use super::Grid;
+use super::{Basis, Grid, LinearBasis, Shape};
+
+/// How a particle-domain basis turns the clipped domain `[x_1, x_2]` into the weight of
+/// node `node` (the gradient is always `(phi(x_2) - phi(x_1)) / (x_2 - x_1)`).
+pub trait DomainWeight: Copy + Default + Send + Sync {
+    /// Name as in `method.basis`.
+    const NAME: &'static str;
+    /// The weight `phi_bar_node` of the domain `[x1, x2]`; `hat1`, `hat2` are the hat
+    /// values at the corners.
+    fn weight(grid: &Grid, node: usize, x1: f64, x2: f64, hat1: f64, hat2: f64) -> f64;
+}
+
+/// Linear hats averaged over the particle domain by the rule `W` (GIMP, CPDI).
+#[derive(Clone, Copy, Debug)]
+pub struct DomainBasis<W: DomainWeight> {
+    grid: Grid,
+    rule: std::marker::PhantomData<W>,
+}
+
+impl<W: DomainWeight> DomainBasis<W> {
+    pub fn new(grid: Grid) -> Self {
+        Self {
+            grid,
+            rule: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<W: DomainWeight> Basis for DomainBasis<W> {
+    fn name(&self) -> &'static str {
+        W::NAME
+    }
+
+    fn num_dofs(&self) -> usize {
+        self.grid.cells + 1
+    }
+
+    #[inline]
+    fn cell_window(&self, cell: usize) -> (usize, usize) {
+        domain_window(&self.grid, cell)
+    }
+
+    fn max_window(&self) -> usize {
+        4.min(self.grid.cells + 1)
+    }
+
+    /// A point evaluation is the plain linear hat.
+    #[inline]
+    fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {
+        LinearBasis::new(self.grid).eval(cell, x, shape);
+    }
+
+    #[inline]
+    fn eval_particle(&self, cell: usize, x: f64, half_length: f64, shape: &mut Shape) {
+        let Some((x1, x2)) = clipped_domain(&self.grid, x, half_length) else {
+            return self.eval(cell, x, shape);
+        };
+        let grid = &self.grid;
+        let (first, len) = domain_window(grid, cell);
+        let inv_length = 1.0 / (x2 - x1);
+        for k in 0..len {
+            let node = first + k;
+            let (hat1, hat2) = (hat(grid, node, x1), hat(grid, node, x2));
+            shape.phi[k] = W::weight(grid, node, x1, x2, hat1, hat2);
+            shape.dphi[k] = (hat2 - hat1) * inv_length;
+        }
+        shape.first = first;
+        shape.len = len;
+    }
+}
 
 /// The clipped domain `[x_1, x_2]` of a particle at `x` with half-length `half_length`, or
 /// `None` when it is (numerically) a point.

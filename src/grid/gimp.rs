@@ -7,69 +7,33 @@
 //! ```
 //!
 //! The averaged functions are a non-negative partition of unity and their gradients sum to
-//! zero. A point evaluation ([`Basis::eval`]) is the plain linear hat.
+//! zero. A point evaluation ([`super::Basis::eval`]) is the plain linear hat.
 
-use super::domain::{clipped_domain, domain_window, hat, hat_antiderivative};
-use super::{Basis, Grid, LinearBasis, Shape};
+use super::domain::{hat_antiderivative, DomainBasis, DomainWeight};
+use super::Grid;
+
+/// The exact domain average of the hat.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GimpAverage;
+
+impl DomainWeight for GimpAverage {
+    const NAME: &'static str = "gimp";
+
+    #[inline]
+    fn weight(grid: &Grid, node: usize, x1: f64, x2: f64, _hat1: f64, _hat2: f64) -> f64 {
+        (hat_antiderivative(grid, node, x2) - hat_antiderivative(grid, node, x1)) * grid.h
+            / (x2 - x1)
+    }
+}
 
 /// GIMP weights on the linear grid.
-#[derive(Clone, Copy, Debug)]
-pub struct GimpBasis {
-    grid: Grid,
-}
-
-impl GimpBasis {
-    pub fn new(grid: Grid) -> Self {
-        Self { grid }
-    }
-}
-
-impl Basis for GimpBasis {
-    fn name(&self) -> &'static str {
-        "gimp"
-    }
-
-    fn num_dofs(&self) -> usize {
-        self.grid.cells + 1
-    }
-
-    #[inline]
-    fn cell_window(&self, cell: usize) -> (usize, usize) {
-        domain_window(&self.grid, cell)
-    }
-
-    fn max_window(&self) -> usize {
-        4.min(self.grid.cells + 1)
-    }
-
-    #[inline]
-    fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {
-        LinearBasis::new(self.grid).eval(cell, x, shape);
-    }
-
-    #[inline]
-    fn eval_particle(&self, cell: usize, x: f64, half_length: f64, shape: &mut Shape) {
-        let Some((x1, x2)) = clipped_domain(&self.grid, x, half_length) else {
-            return self.eval(cell, x, shape);
-        };
-        let grid = &self.grid;
-        let (first, len) = domain_window(grid, cell);
-        let inv_length = 1.0 / (x2 - x1);
-        for k in 0..len {
-            let node = first + k;
-            let integral =
-                (hat_antiderivative(grid, node, x2) - hat_antiderivative(grid, node, x1)) * grid.h;
-            shape.phi[k] = integral * inv_length;
-            shape.dphi[k] = (hat(grid, node, x2) - hat(grid, node, x1)) * inv_length;
-        }
-        shape.first = first;
-        shape.len = len;
-    }
-}
+pub type GimpBasis = DomainBasis<GimpAverage>;
 
 #[cfg(test)]
 mod tests {
+    use super::super::domain::{clipped_domain, hat};
     use super::*;
+    use crate::grid::{Basis, Shape};
     use proptest::prelude::*;
 
     proptest! {
