@@ -30,13 +30,7 @@ pub fn build_simulation(
     scenario.validate()?;
     let problem = problems::build(scenario)?;
     let grid = Grid::new(problem.length(), scenario.grid.cells);
-    let material = Material::from_config(&scenario.material).ok_or_else(|| {
-        Error::invalid(
-            "material.model",
-            format!("{:?}", scenario.material.model),
-            "not a one-phase elastic model",
-        )
-    })?;
+    let material = Material::require(&scenario.material)?;
     let mut particles = problem.initial_particles(
         &grid,
         scenario.particles.per_cell,

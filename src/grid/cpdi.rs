@@ -21,7 +21,15 @@ impl DomainWeight for CpdiCorners {
     const NAME: &'static str = "cpdi";
 
     #[inline]
-    fn weight(_grid: &Grid, _node: usize, _x1: f64, _x2: f64, hat1: f64, hat2: f64) -> f64 {
+    fn weight(
+        _grid: &Grid,
+        _node: usize,
+        _x1: f64,
+        _x2: f64,
+        _inv_length: f64,
+        hat1: f64,
+        hat2: f64,
+    ) -> f64 {
         0.5 * (hat1 + hat2)
     }
 }

@@ -19,9 +19,17 @@ use super::{Basis, Grid, LinearBasis, Shape};
 pub trait DomainWeight: Copy + Default + Send + Sync {
     /// Name as in `method.basis`.
     const NAME: &'static str;
-    /// The weight `phi_bar_node` of the domain `[x1, x2]`; `hat1`, `hat2` are the hat
-    /// values at the corners.
-    fn weight(grid: &Grid, node: usize, x1: f64, x2: f64, hat1: f64, hat2: f64) -> f64;
+    /// The weight `phi_bar_node` of the domain `[x1, x2]`; `inv_length = 1 / (x2 - x1)`,
+    /// `hat1`, `hat2` are the hat values at the corners.
+    fn weight(
+        grid: &Grid,
+        node: usize,
+        x1: f64,
+        x2: f64,
+        inv_length: f64,
+        hat1: f64,
+        hat2: f64,
+    ) -> f64;
 }
 
 /// Linear hats averaged over the particle domain by the rule `W` (GIMP, CPDI).
@@ -75,7 +83,7 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
         for k in 0..len {
             let node = first + k;
             let (hat1, hat2) = (hat(grid, node, x1), hat(grid, node, x2));
-            shape.phi[k] = W::weight(grid, node, x1, x2, hat1, hat2);
+            shape.phi[k] = W::weight(grid, node, x1, x2, inv_length, hat1, hat2);
             shape.dphi[k] = (hat2 - hat1) * inv_length;
         }
         shape.first = first;

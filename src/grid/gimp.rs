@@ -20,9 +20,17 @@ impl DomainWeight for GimpAverage {
     const NAME: &'static str = "gimp";
 
     #[inline]
-    fn weight(grid: &Grid, node: usize, x1: f64, x2: f64, _hat1: f64, _hat2: f64) -> f64 {
-        (hat_antiderivative(grid, node, x2) - hat_antiderivative(grid, node, x1)) * grid.h
-            / (x2 - x1)
+    fn weight(
+        grid: &Grid,
+        node: usize,
+        x1: f64,
+        x2: f64,
+        inv_length: f64,
+        _hat1: f64,
+        _hat2: f64,
+    ) -> f64 {
+        (hat_antiderivative(grid, node, x2) - hat_antiderivative(grid, node, x1))
+            * (grid.h * inv_length)
     }
 }
 

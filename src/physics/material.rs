@@ -85,6 +85,18 @@ impl Material {
         }
     }
 
+    /// [`Material::from_config`], or an input error naming `material.model` for models that
+    /// are not one-phase elastic laws.
+    pub fn require(config: &MaterialConfig) -> crate::error::Result<Self> {
+        Self::from_config(config).ok_or_else(|| {
+            crate::error::Error::invalid(
+                "material.model",
+                format!("{:?}", config.model),
+                "not a one-phase elastic model",
+            )
+        })
+    }
+
     /// The modulus of the wave speed.
     pub fn wave_modulus(&self) -> f64 {
         match self {

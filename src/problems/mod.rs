@@ -111,13 +111,7 @@ pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     match scenario.problem.reference {
         ReferenceKind::Exact => Ok(problem),
         ReferenceKind::Ulfem => {
-            let material = Material::from_config(&scenario.material).ok_or_else(|| {
-                Error::invalid(
-                    "material.model",
-                    format!("{:?}", scenario.material.model),
-                    "the ULFEM reference needs a one-phase elastic model",
-                )
-            })?;
+            let material = Material::require(&scenario.material)?;
             Ok(Box::new(UlfemReference::new(
                 problem,
                 scenario.problem.reference_dofs,
