@@ -207,6 +207,29 @@ pub struct MethodConfig {
     /// DDMPM sub-points per particle (0 = off).
     #[serde(default)]
     pub subpoints: usize,
+    /// Mass matrix of the acceleration solve (SPEC §2 step 2); `method.mass` is the one of
+    /// the velocity mapping (step 4). Default: see [`MethodConfig::acceleration_mass`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceleration_mass: Option<MassKind>,
+    /// Gauss points per cell of reconstructions (0 = enough to integrate the consistent
+    /// mass matrix of the quadratic reconstruction exactly: `p + 2` for basis degree `p`).
+    #[serde(default)]
+    pub gauss_points: usize,
+    /// Remedy for cells whose least-squares fit is degenerate.
+    #[serde(default)]
+    pub degenerate_cells: DegenerateRemedy,
+}
+
+/// `method.degenerate_cells` (SPEC §4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DegenerateRemedy {
+    /// Neighbour reconstructions evaluated at the shared faces as extra data points
+    /// (falling back to order reduction when that is not enough).
+    #[default]
+    VirtualPoints,
+    /// Drop `psi_3`, then `psi_2`.
+    OrderReduction,
 }
 
 fn default_order() -> usize {
@@ -222,7 +245,18 @@ impl Default for MethodConfig {
             mass: MassKind::default(),
             scheme: Scheme::default(),
             subpoints: 0,
+            acceleration_mass: None,
+            gauss_points: 0,
+            degenerate_cells: DegenerateRemedy::default(),
         }
+    }
+}
+
+impl MethodConfig {
+    /// The mass matrix of the acceleration solve: `method.acceleration_mass` if given,
+    /// else the same as `method.mass`.
+    pub fn acceleration_mass(&self) -> MassKind {
+        self.acceleration_mass.unwrap_or(self.mass)
     }
 }
 
@@ -230,11 +264,12 @@ impl Default for MethodConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum SolverKind {
-    #[default]
     Cg,
     Pcg,
     Pmg,
     Direct,
+    /// Banded Cholesky: exact and `O(N p^2)` in 1D, the default.
+    #[default]
     Banded,
 }
 
@@ -605,16 +640,34 @@ impl Scenario {
             _ => {}
         }
         match self.method.reconstruction {
-            ReconstructionKind::None => {}
-            ReconstructionKind::Tls => return not_yet("method.reconstruction", "tls"),
+            ReconstructionKind::None | ReconstructionKind::Tls => {}
             ReconstructionKind::CubicSpline => {
                 return not_yet("method.reconstruction", "cubic_spline")
             }
             ReconstructionKind::Mls => return not_yet("method.reconstruction", "mls"),
             ReconstructionKind::Imls => return not_yet("method.reconstruction", "imls"),
         }
-        if self.method.mass == MassKind::Consistent {
-            return not_yet("method.mass", "consistent");
+        let consistent = self.method.mass == MassKind::Consistent
+            || self.method.acceleration_mass() == MassKind::Consistent;
+        if consistent {
+            match self.solver.kind {
+                SolverKind::Cg | SolverKind::Banded => {}
+                SolverKind::Pcg => return not_yet("solver.kind", "pcg"),
+                SolverKind::Pmg => return not_yet("solver.kind", "pmg"),
+                SolverKind::Direct => return not_yet("solver.kind", "direct"),
+            }
+        }
+        if self.method.gauss_points > crate::numerics::gauss::MAX_POINTS
+            || self.method.gauss_points == 1
+        {
+            return Err(Error::invalid(
+                "method.gauss_points",
+                self.method.gauss_points,
+                format!(
+                    "must be 0 (automatic) or between 2 and {}",
+                    crate::numerics::gauss::MAX_POINTS
+                ),
+            ));
         }
         if self.method.subpoints != 0 {
             return Err(Error::invalid(

@@ -329,15 +329,38 @@ fn malformed_set_is_bad_input() {
 fn unavailable_methods_name_their_key() {
     for (set, key, value) in [
         (
-            "method.reconstruction=tls",
+            "method.reconstruction=imls",
             "`method.reconstruction`",
-            "tls",
+            "imls",
         ),
-        ("method.mass=consistent", "`method.mass`", "consistent"),
         ("problem.kind=mms_bar", "`problem.kind`", "mms_bar"),
     ] {
         expect_input_error(BAR, &[TINY, set], &[], &[key, value, "not available"]);
     }
+    expect_input_error(
+        BAR,
+        &[TINY, "method.mass=consistent", "solver.kind=pmg"],
+        &[],
+        &["`solver.kind`", "pmg", "not available"],
+    );
+    for points in ["1", "33"] {
+        expect_input_error(
+            BAR,
+            &[
+                TINY,
+                "method.reconstruction=tls",
+                &format!("method.gauss_points={points}"),
+            ],
+            &[],
+            &["`method.gauss_points`", points],
+        );
+    }
+    expect_input_error(
+        BAR,
+        &[TINY, "method.degenerate_cells=magic"],
+        &[],
+        &["method.degenerate_cells", "magic"],
+    );
 }
 
 #[test]

@@ -3,14 +3,15 @@
 //! `Stepper<BSplineBasis, DirectMapping>`, ...): the only place that matches on
 //! `method.basis` and `method.reconstruction`.
 
-use crate::config::{BasisKind, ReconstructionKind, Scenario};
+use crate::config::{BasisKind, ReconstructionKind, Scenario, SolverKind};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
-use crate::mapping::{DirectMapping, Mapping};
+use crate::linalg::{BandedCholesky, ConjugateGradient, LinearSolver};
+use crate::mapping::{DirectMapping, Mapping, TlsMapping};
 use crate::particles::Particles;
 use crate::physics::stability::critical_time_step;
 use crate::physics::step::TimeStepper;
-use crate::physics::{Boundary, Material, Simulation, Stepper};
+use crate::physics::{Boundary, MassSystem, Material, Simulation, Stepper};
 use crate::problems::{self, Problem};
 
 /// Everything a stepper needs besides its basis and mapping.
@@ -47,6 +48,14 @@ pub fn build_simulation(
         ReconstructionKind::None => {
             with_basis(scenario, parts, DirectMapping::default(), &mut particles)?
         }
+        ReconstructionKind::Tls => {
+            let points = gauss_points(scenario);
+            let mapping =
+                TlsMapping::new(grid, points, method.degenerate_cells).ok_or_else(|| {
+                    Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
+                })?;
+            with_basis(scenario, parts, mapping, &mut particles)?
+        }
         reconstruction => {
             return Err(Error::invalid(
                 "method.reconstruction",
@@ -56,6 +65,36 @@ pub fn build_simulation(
         }
     };
     Ok((problem, Simulation::new(stepper, particles)))
+}
+
+/// Gauss points per cell of a reconstruction: `method.gauss_points`, or (0) `p + 2` for a
+/// basis of polynomial degree `p`, which integrates `M^C = int rho_hat phi phi^T` (degree
+/// `2 + 2p`) exactly.
+pub fn gauss_points(scenario: &Scenario) -> usize {
+    match scenario.method.gauss_points {
+        0 => {
+            let degree = match scenario.method.basis {
+                BasisKind::Bspline => scenario.method.order,
+                _ => 1,
+            };
+            degree + 2
+        }
+        n => n,
+    }
+}
+
+/// The solver of consistent mass systems (`solver.kind`).
+fn mass_solver(scenario: &Scenario) -> Result<Box<dyn LinearSolver>> {
+    let solver = &scenario.solver;
+    match solver.kind {
+        SolverKind::Banded => Ok(Box::new(BandedCholesky::new())),
+        SolverKind::Cg => Ok(Box::new(ConjugateGradient::new(solver.tolerance, 10_000))),
+        other => Err(Error::invalid(
+            "solver.kind",
+            format!("{other:?}"),
+            "not available in this version of tlsmpm",
+        )),
+    }
 }
 
 /// Dispatch on `method.basis` for a given mapping.
@@ -104,6 +143,11 @@ fn stepper<B: Basis + 'static, M: Mapping + 'static>(
         scenario.method.scheme,
         parts.boundary,
         scenario.time.dt,
+        MassSystem::new(
+            scenario.method.acceleration_mass(),
+            scenario.method.mass,
+            mass_solver(scenario)?,
+        ),
         particles,
     );
     let limit = critical_time_step(&stepper.basis, particles, parts.material.wave_modulus());

@@ -187,11 +187,15 @@ fn write_outputs(
             max_rel_momentum_error: simulation.max_momentum_error,
         },
         grid_crossings: simulation.grid_crossings,
-        solver: SolverSummary {
-            kind: "lumped".into(),
-            total_iterations: 0,
-            max_iterations: 0,
+        solver: {
+            let mass = simulation.stepper.mass_system();
+            SolverSummary {
+                kind: mass.kind().into(),
+                total_iterations: mass.total_iterations,
+                max_iterations: mass.max_iterations,
+            }
         },
+        reconstruction_remedies: simulation.stepper.remedies(),
         config: scenario.clone(),
     };
     write_particles(

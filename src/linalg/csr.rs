@@ -48,6 +48,54 @@ impl CsrMatrix {
         }
     }
 
+    /// The `n x n` matrix with the symmetric band pattern `|i - j| <= bandwidth`, all zero.
+    /// Row `i` stores columns `i.saturating_sub(bandwidth) ..= min(i + bandwidth, n - 1)` in
+    /// order, so [`CsrMatrix::band_index`] finds an entry without a search.
+    ///
+    /// ```
+    /// let m = tlsmpm::linalg::CsrMatrix::band(4, 1);
+    /// assert_eq!(m.row_start, vec![0, 2, 5, 8, 10]);
+    /// assert_eq!(m.band_index(2, 3), 7);
+    /// ```
+    pub fn band(n: usize, bandwidth: usize) -> Self {
+        let mut row_start = Vec::with_capacity(n + 1);
+        let mut col_index = Vec::new();
+        row_start.push(0);
+        for i in 0..n {
+            let last = (i + bandwidth).min(n.saturating_sub(1));
+            col_index.extend(i.saturating_sub(bandwidth)..=last);
+            row_start.push(col_index.len());
+        }
+        let values = vec![0.0; col_index.len()];
+        Self {
+            rows: n,
+            cols: n,
+            row_start,
+            col_index,
+            values,
+        }
+    }
+
+    /// Position of `(row, col)` in `values` for a matrix built by [`CsrMatrix::band`] with
+    /// `|row - col|` within the band.
+    #[inline]
+    pub fn band_index(&self, row: usize, col: usize) -> usize {
+        self.row_start[row] + col - self.col_index[self.row_start[row]]
+    }
+
+    /// Replace the rows and columns of the DOFs with `keep[i] == false` by those of the
+    /// identity (Dirichlet or inactive DOFs eliminated from a symmetric system).
+    pub fn constrain(&mut self, keep: &[bool]) {
+        for (i, &keep_row) in keep.iter().enumerate().take(self.rows) {
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                let j = self.col_index[k];
+                if !keep_row || !keep[j] {
+                    self.values[k] = if i == j { 1.0 } else { 0.0 };
+                }
+            }
+        }
+    }
+
     /// `y = A x`.
     pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
         for (i, yi) in y.iter_mut().enumerate().take(self.rows) {

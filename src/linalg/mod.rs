@@ -1,13 +1,16 @@
 //! Linear algebra for mass-matrix solves (SPEC §5): a compressed-sparse-row matrix, the
-//! [`LinearSolver`] trait every solver implements, and conjugate gradients.
+//! [`LinearSolver`] trait every solver implements, conjugate gradients and the banded
+//! Cholesky of 1D mass matrices.
 //!
 //! Shape of the API (after faer): a solver is built once and then called every step; the
 //! initial content of `x` is the starting guess (warm start from the previous step), and
 //! every call returns [`SolveStats`] instead of panicking on breakdown.
 
+pub mod banded;
 pub mod cg;
 pub mod csr;
 
+pub use banded::BandedCholesky;
 pub use cg::ConjugateGradient;
 pub use csr::CsrMatrix;
 

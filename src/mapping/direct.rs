@@ -6,8 +6,10 @@
 //! p_i     = sum_p m_p v_p phi_i(x_p)
 //! ```
 //! With a partition-of-unity basis, `sum_i m_i = sum_p m_p` and `sum_i p_i = sum_p m_p v_p`
-//! up to round-off (the lumped mapping conserves mass and momentum).
+//! up to round-off (the lumped mapping conserves mass and momentum). The consistent mass
+//! matrix, when asked for, is `M^C_ij = sum_p m_p phi_i(x_p) phi_j(x_p)`.
 
+use super::scatter::add_outer;
 use super::{CellScatter, GridFields, Mapping};
 use crate::grid::{Basis, Shape};
 use crate::particles::{CellBins, Particles};
@@ -53,6 +55,17 @@ impl Mapping for DirectMapping {
                 }
             },
         );
+        if let Some(matrix) = grid.consistent_mass.as_mut() {
+            // M^C_ij = sum_p m_p phi_i(x_p) phi_j(x_p).
+            self.scatter
+                .scatter_matrix(basis, bins.cells(), matrix, |cell, first, local| {
+                    let mut shape = Shape::default();
+                    for p in bins.range(cell) {
+                        basis.eval_particle(cell, x[p], 0.5 * volume[p], &mut shape);
+                        add_outer(local, shape.first - first, &shape, mass[p]);
+                    }
+                });
+        }
     }
 
     fn map_momentum<B: Basis>(

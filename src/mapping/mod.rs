@@ -1,19 +1,24 @@
 //! Particle → grid transfers (SPEC §2 step 1 and 4, §4).
 //!
-//! [`Mapping`] is the plug point: the direct particle quadrature of standard MPM now,
-//! TLS / cubic-spline / MLS / IMLS reconstructions and DDMPM sub-points behind the same
-//! trait later. Every mapping scatters through [`scatter::CellScatter`]: per-cell local
-//! buffers filled in parallel, then reduced in a fixed cell order, so grid vectors are
-//! bitwise identical for any thread count.
+//! [`Mapping`] is the plug point: the direct particle quadrature of standard MPM
+//! ([`DirectMapping`]) and the conservative Taylor-least-squares reconstruction with Gauss
+//! quadrature ([`TlsMapping`]). Every mapping scatters through [`scatter::CellScatter`]:
+//! per-cell local buffers filled in parallel, then reduced in a fixed cell order, so grid
+//! vectors and the consistent mass matrix are bitwise identical for any thread count.
 
 pub mod direct;
+pub mod quadrature;
 pub mod scatter;
+pub mod tls;
 
 pub use direct::DirectMapping;
 pub use scatter::CellScatter;
+pub use tls::TlsMapping;
 
 use crate::grid::Basis;
+use crate::linalg::CsrMatrix;
 use crate::particles::{CellBins, Particles};
+use serde::Serialize;
 
 /// Grid vectors of one step, all of length `N_n`.
 #[derive(Clone, Debug, Default)]
@@ -30,6 +35,9 @@ pub struct GridFields {
     pub acceleration: Vec<f64>,
     /// Velocity `v_i`.
     pub velocity: Vec<f64>,
+    /// Consistent mass matrix `M^C_ij = int rho phi_i phi_j` (band pattern of the basis),
+    /// assembled by the mapping when present; `mass` holds its row sums.
+    pub consistent_mass: Option<CsrMatrix>,
 }
 
 impl GridFields {
@@ -42,7 +50,31 @@ impl GridFields {
             momentum: vec![0.0; dofs],
             acceleration: vec![0.0; dofs],
             velocity: vec![0.0; dofs],
+            consistent_mass: None,
         }
+    }
+}
+
+/// How often a reconstruction needed a remedy, counted over cell fits (SPEC §4.1): every
+/// step fits stress, density and momentum once per active cell.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RemedyCounts {
+    /// Cell fits whose normal equations were singular or ill conditioned.
+    pub degenerate_fits: u64,
+    /// Of those, fits repaired by virtual points from neighbouring cells.
+    pub virtual_point_fits: u64,
+    /// Of those, fits that dropped Taylor terms (order reduction).
+    pub order_reduced_fits: u64,
+    /// Density fits scaled towards the cell mean to stay non-negative at the Gauss points.
+    pub density_limited_fits: u64,
+}
+
+impl std::ops::AddAssign for RemedyCounts {
+    fn add_assign(&mut self, other: Self) {
+        self.degenerate_fits += other.degenerate_fits;
+        self.virtual_point_fits += other.virtual_point_fits;
+        self.order_reduced_fits += other.order_reduced_fits;
+        self.density_limited_fits += other.density_limited_fits;
     }
 }
 
@@ -51,7 +83,8 @@ pub trait Mapping: Send {
     /// Name as in the scenario key `method.reconstruction`.
     fn name(&self) -> &'static str;
 
-    /// Map mass and internal force: fills `grid.mass` and `grid.internal_force`.
+    /// Map mass and internal force: fills `grid.mass` (row sums) and
+    /// `grid.internal_force`, and `grid.consistent_mass` when it is present.
     fn map_mass_and_internal_force<B: Basis>(
         &mut self,
         basis: &B,
@@ -60,7 +93,8 @@ pub trait Mapping: Send {
         grid: &mut GridFields,
     );
 
-    /// Map momentum from the current particle velocities: fills `grid.momentum`.
+    /// Map momentum from the current particle velocities: fills `grid.momentum`. Called
+    /// after [`Mapping::map_mass_and_internal_force`] in the same step (same positions).
     fn map_momentum<B: Basis>(
         &mut self,
         basis: &B,
@@ -68,4 +102,9 @@ pub trait Mapping: Send {
         bins: &CellBins,
         grid: &mut GridFields,
     );
+
+    /// Remedies applied since the mapping was created (none for direct quadrature).
+    fn remedies(&self) -> RemedyCounts {
+        RemedyCounts::default()
+    }
 }

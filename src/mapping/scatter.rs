@@ -6,12 +6,31 @@
 //! cell in increasing order. No atomics, no races, and the floating-point sums happen in the
 //! same order whatever the number of threads.
 
-use crate::grid::{Basis, MAX_SUPPORT};
+use crate::grid::{Basis, Shape, MAX_SUPPORT};
+use crate::linalg::CsrMatrix;
 use crate::particles::CellBins;
 use rayon::prelude::*;
 
 /// Cells per rayon task: keeps the task overhead small for few particles per cell.
 const CELLS_PER_TASK: usize = 64;
+
+/// A cell's local matrix: `local[r * MAX_SUPPORT + c]` couples DOFs `window_first + r` and
+/// `window_first + c`.
+pub type LocalMatrix = [f64; MAX_SUPPORT * MAX_SUPPORT];
+
+/// Add `weight phi phi^T` of `shape` to a cell's local matrix; `offset` is
+/// `shape.first - window_first`.
+#[inline]
+pub fn add_outer(local: &mut LocalMatrix, offset: usize, shape: &Shape, weight: f64) {
+    let phi = &shape.phi[..shape.len];
+    for (r, &phi_r) in phi.iter().enumerate() {
+        let start = (offset + r) * MAX_SUPPORT + offset;
+        let a = weight * phi_r;
+        for (entry, &phi_c) in local[start..start + shape.len].iter_mut().zip(phi) {
+            *entry += a * phi_c;
+        }
+    }
+}
 
 /// A cell's local accumulators: `local[f][k]` is field `f` at DOF `window_first + k`.
 pub type Local<const F: usize> = [[f64; MAX_SUPPORT]; F];
@@ -30,13 +49,27 @@ impl CellScatter {
         &mut self,
         basis: &B,
         bins: &CellBins,
+        outputs: [&mut [f64]; F],
+        kernel: K,
+    ) where
+        B: Basis,
+        K: Fn(usize, usize, &mut Local<F>) + Sync,
+    {
+        self.scatter_cells(basis, bins.cells(), outputs, kernel);
+    }
+
+    /// [`CellScatter::scatter`] over `cells` cells (for kernels that loop over Gauss
+    /// points instead of binned particles).
+    pub fn scatter_cells<B, K, const F: usize>(
+        &mut self,
+        basis: &B,
+        cells: usize,
         mut outputs: [&mut [f64]; F],
         kernel: K,
     ) where
         B: Basis,
         K: Fn(usize, usize, &mut Local<F>) + Sync,
     {
-        let cells = bins.cells();
         let width = basis.max_window();
         let stride = F * width;
         self.buffer.clear();
@@ -61,6 +94,52 @@ impl CellScatter {
             for (out, local) in outputs.iter_mut().zip(chunk.chunks_exact(width)) {
                 for (o, l) in out[first..first + len].iter_mut().zip(&local[..len]) {
                     *o += l;
+                }
+            }
+        }
+    }
+
+    /// Scatter a symmetric matrix with the band pattern of the basis
+    /// ([`CsrMatrix::band`] with bandwidth `max_window - 1`). `kernel(cell, window_first,
+    /// local)` fills the cell's local matrix (zeroed on entry); the cells are added into
+    /// `matrix.values` (overwritten) in increasing cell order, whatever the thread count.
+    pub fn scatter_matrix<B, K>(
+        &mut self,
+        basis: &B,
+        cells: usize,
+        matrix: &mut CsrMatrix,
+        kernel: K,
+    ) where
+        B: Basis,
+        K: Fn(usize, usize, &mut LocalMatrix) + Sync,
+    {
+        let width = basis.max_window();
+        let stride = width * width;
+        self.buffer.clear();
+        self.buffer.resize(cells * stride, 0.0);
+        self.buffer
+            .par_chunks_mut(stride)
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, chunk)| {
+                let mut local = [0.0; MAX_SUPPORT * MAX_SUPPORT];
+                let (first, _) = basis.cell_window(cell);
+                kernel(cell, first, &mut local);
+                for (r, out) in chunk.chunks_exact_mut(width).enumerate() {
+                    out.copy_from_slice(&local[r * MAX_SUPPORT..r * MAX_SUPPORT + width]);
+                }
+            });
+        matrix.values.fill(0.0);
+        for (cell, chunk) in self.buffer.chunks_exact(stride).enumerate() {
+            let (first, len) = basis.cell_window(cell);
+            for r in 0..len {
+                let row = first + r;
+                let start = matrix.band_index(row, first);
+                for (value, local) in matrix.values[start..start + len]
+                    .iter_mut()
+                    .zip(&chunk[r * width..r * width + len])
+                {
+                    *value += local;
                 }
             }
         }

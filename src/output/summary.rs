@@ -21,7 +21,8 @@ pub struct Conservation {
     pub max_rel_momentum_error: f64,
 }
 
-/// Linear-solver statistics (`kind = "lumped"` for the diagonal mass matrix).
+/// Linear-solver statistics of the consistent mass solves (`kind = "lumped"` when only
+/// the diagonal mass matrix is used).
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct SolverSummary {
     pub kind: String,
@@ -59,6 +60,9 @@ pub struct Summary {
     pub conservation: Conservation,
     pub grid_crossings: usize,
     pub solver: SolverSummary,
+    /// Cell fits of the reconstruction that needed a remedy (SPEC §4.1), summed over the
+    /// run; all zero for the direct mapping.
+    pub reconstruction_remedies: crate::mapping::RemedyCounts,
     /// The resolved scenario (file + `--set` overrides + defaults).
     pub config: Scenario,
 }

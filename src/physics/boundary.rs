@@ -41,6 +41,18 @@ impl Boundary {
         }
     }
 
+    /// The fixed DOFs among the end DOFs `(left, right)`.
+    pub fn fixed_dofs(&self, (left, right): (usize, usize)) -> FixedDofs {
+        let mut fixed = FixedDofs::default();
+        for (is_fixed, dof) in [(self.fixed_left, left), (self.fixed_right, right)] {
+            if is_fixed {
+                fixed.dofs[fixed.len] = dof;
+                fixed.len += 1;
+            }
+        }
+        fixed
+    }
+
     /// Zero the fixed DOFs of a grid vector (accelerations, velocities).
     pub fn zero_fixed(&self, (left, right): (usize, usize), grid_vector: &mut [f64]) {
         if self.fixed_left {
@@ -49,5 +61,19 @@ impl Boundary {
         if self.fixed_right {
             grid_vector[right] = 0.0;
         }
+    }
+}
+
+/// Up to two fixed DOFs (no allocation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FixedDofs {
+    dofs: [usize; 2],
+    len: usize,
+}
+
+impl FixedDofs {
+    /// The fixed DOFs.
+    pub fn as_slice(&self) -> &[usize] {
+        &self.dofs[..self.len]
     }
 }

@@ -2,12 +2,14 @@
 //! Euler–Cromer step (SPEC §2) and the time loop with its diagnostics.
 
 pub mod boundary;
+pub mod mass;
 pub mod material;
 pub mod simulation;
 pub mod stability;
 pub mod step;
 
 pub use boundary::Boundary;
+pub use mass::MassSystem;
 pub use material::{ConstitutiveLaw, Hill, LinearElastic, Material};
 pub use simulation::{HistoryRow, Simulation};
 pub use step::{StepReport, Stepper};

@@ -1,11 +1,11 @@
 //! The one-phase Euler–Cromer step (SPEC §2), MUSL (default) or USL.
 //!
 //! ```text
-//! 1. m_i, f_int_i by the mapping; f_ext_i = b m_i + tractions
-//! 2. a_i = (f_ext_i - f_int_i) / m_i;            a_i = 0 on fixed DOFs
+//! 1. m_i (and M^C), f_int_i by the mapping; f_ext_i = b m_i + tractions
+//! 2. M a = f_ext - f_int;                          a_i = 0 on fixed DOFs
 //! 3. v_p += dt sum_i phi_i(x_p) a_i
-//! 4. MUSL: v_i = (sum_p m_p phi_i(x_p) v_p) / m_i  (updated v_p)
-//!    USL:  v_i = (sum_p m_p phi_i(x_p) v_p^old) / m_i + dt a_i;   v_i = 0 on fixed DOFs
+//! 4. MUSL: M v = p(updated v_p)
+//!    USL:  M v = p(v_p^old), v += dt a;            v_i = 0 on fixed DOFs
 //! 5. du_i = dt v_i
 //! 6. u_p += phi^T du, x_p += phi^T du, deps_p = dphi^T du
 //! 7. sigma_p = law(sigma_p, deps_p)
@@ -15,17 +15,20 @@
 //! step 1, and particle-domain bases (GIMP, CPDI) are evaluated with `l_p = V_p / 2`;
 //! then the particles are re-binned (counting sort) and grid crossings counted. The
 //! conservation errors of the mapping are measured each step (SPEC §6): mass
-//! `|sum_i m_i - sum_p m_p| / sum_p m_p` after step 1, momentum
-//! `|sum_i m_i v_i - sum_p m_p v_p| / sum_p m_p |v_p|` after step 4 (before the Dirichlet
-//! conditions are applied).
+//! `|sum_i m_i - sum_p m_p| / sum_p m_p` after step 1; momentum, with
+//! `scale = sum_p m_p |v_p|`, the larger of the mapping error `|sum_i p_i - sum_p m_p v_p|`
+//! (before the velocity solve) and, for a consistent mass matrix, the solve's imbalance
+//! `|sum_i ((M v)_i - p_i)|` over the active free DOFs (after it). `M` is the lumped or
+//! consistent matrix of [`MassSystem`].
 
 use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::{Basis, Grid, ParticleQuadrature, Shape};
-use crate::mapping::{GridFields, Mapping};
+use crate::linalg::CsrMatrix;
+use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, Particles};
-use crate::physics::{Boundary, ConstitutiveLaw, Material};
+use crate::physics::{Boundary, ConstitutiveLaw, MassSystem, Material};
 use rayon::prelude::*;
 
 /// Particles per rayon task in particle loops.
@@ -53,6 +56,7 @@ pub struct Stepper<B: Basis, M: Mapping> {
     pub dt: f64,
     pub fields: GridFields,
     pub bins: CellBins,
+    pub mass: MassSystem,
     total_mass: f64,
 }
 
@@ -67,6 +71,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         scheme: Scheme,
         boundary: Boundary,
         dt: f64,
+        mass: MassSystem,
         particles: &mut Particles,
     ) -> Self {
         let mut bins = CellBins::default();
@@ -76,7 +81,11 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             basis.update(quadrature(particles, &bins));
         }
         let total_mass = deterministic_sum(particles.len(), |p| particles.mass[p]);
-        let fields = GridFields::new(basis.num_dofs());
+        let mut fields = GridFields::new(basis.num_dofs());
+        if mass.needs_matrix() {
+            fields.consistent_mass =
+                Some(CsrMatrix::band(basis.num_dofs(), basis.max_window() - 1));
+        }
         Self {
             grid,
             basis,
@@ -87,6 +96,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             dt,
             fields,
             bins,
+            mass,
             total_mass,
         }
     }
@@ -123,34 +133,34 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         }
 
         // 2. Accelerations.
-        for i in 0..fields.mass.len() {
-            let m = fields.mass[i];
-            fields.acceleration[i] = if m > 0.0 {
-                (fields.external_force[i] - fields.internal_force[i]) / m
-            } else {
-                0.0
-            };
-        }
-        self.boundary.zero_fixed(ends, &mut fields.acceleration);
+        let fixed = self.boundary.fixed_dofs(ends);
+        self.mass.prepare(fields, fixed.as_slice());
+        self.mass
+            .accelerations(fields)
+            .map_err(|e| at_step(e, step, time))?;
 
-        // 3. Particle velocities (and, for MUSL, the momentum they carry).
+        // 3.-4. Particle velocities (and, for MUSL, the momentum they carry), grid velocities.
         let momentum_error = match self.scheme {
             Scheme::Musl => {
                 update_particle_velocities(&self.basis, particles, &fields.acceleration, dt);
                 self.mapping
                     .map_momentum(&self.basis, particles, &self.bins, fields);
-                let error = momentum_error(particles, fields);
-                grid_velocity_from_momentum(fields, 0.0);
-                error
+                let imbalance = self
+                    .mass
+                    .velocities(fields, 0.0)
+                    .map_err(|e| at_step(e, step, time))?;
+                momentum_error(particles, fields, imbalance)
             }
             Scheme::Usl => {
-                let error = momentum_error(particles, fields);
-                grid_velocity_from_momentum(fields, dt);
+                let imbalance = self
+                    .mass
+                    .velocities(fields, dt)
+                    .map_err(|e| at_step(e, step, time))?;
+                let error = momentum_error(particles, fields, imbalance);
                 update_particle_velocities(&self.basis, particles, &fields.acceleration, dt);
                 error
             }
         };
-        self.boundary.zero_fixed(ends, &mut fields.velocity);
 
         // 5.-8. Kinematics and stress, dispatched once on the material law.
         let outcome = match self.material {
@@ -215,29 +225,23 @@ fn quadrature<'a>(particles: &'a Particles, bins: &'a CellBins) -> ParticleQuadr
     }
 }
 
-/// `|sum_i m_i v_i - sum_p m_p v_p| / sum_p m_p |v_p|` with `v_i = p_i / m_i`.
-fn momentum_error(particles: &Particles, fields: &GridFields) -> Option<f64> {
+/// `max(|sum_i p_i - sum_p m_p v_p|, imbalance) / sum_p m_p |v_p|` (see the module doc).
+fn momentum_error(particles: &Particles, fields: &GridFields, imbalance: f64) -> Option<f64> {
     let n = particles.len();
     let (m, v) = (&particles.mass, &particles.v);
     let [particle_momentum, scale] = deterministic_sums(n, |p| [m[p] * v[p], m[p] * v[p].abs()]);
-    let grid_momentum: f64 = fields
-        .momentum
-        .iter()
-        .zip(&fields.mass)
-        .map(|(&p, &m)| if m > 0.0 { m * (p / m) } else { 0.0 })
-        .sum();
-    (scale > 0.0).then(|| (grid_momentum - particle_momentum).abs() / scale)
+    let grid_momentum: f64 = fields.momentum.iter().sum();
+    (scale > 0.0).then(|| (grid_momentum - particle_momentum).abs().max(imbalance) / scale)
 }
 
-/// `v_i = p_i / m_i + dt_accel a_i` (0 on empty DOFs).
-fn grid_velocity_from_momentum(fields: &mut GridFields, dt_accel: f64) {
-    for i in 0..fields.mass.len() {
-        let m = fields.mass[i];
-        fields.velocity[i] = if m > 0.0 {
-            fields.momentum[i] / m + dt_accel * fields.acceleration[i]
-        } else {
-            0.0
-        };
+/// A solver failure labelled with the step it happened in.
+fn at_step(error: Error, step: usize, time: f64) -> Error {
+    match error {
+        Error::Solver { solver, reason } => Error::Solver {
+            solver,
+            reason: format!("{reason} (step {step}, t = {time:e} s)"),
+        },
+        other => other,
     }
 }
 
@@ -367,6 +371,10 @@ pub trait TimeStepper: Send {
     fn material(&self) -> &Material;
     /// Names of the basis and mapping (`method.basis`, `method.reconstruction`).
     fn method_names(&self) -> (&'static str, &'static str);
+    /// The mass-matrix solves so far.
+    fn mass_system(&self) -> &MassSystem;
+    /// Remedies of the reconstruction so far.
+    fn remedies(&self) -> RemedyCounts;
 }
 
 impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
@@ -390,5 +398,11 @@ impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
     }
     fn method_names(&self) -> (&'static str, &'static str) {
         (self.basis.name(), self.mapping.name())
+    }
+    fn mass_system(&self) -> &MassSystem {
+        &self.mass
+    }
+    fn remedies(&self) -> RemedyCounts {
+        self.mapping.remedies()
     }
 }

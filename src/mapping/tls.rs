@@ -1,0 +1,384 @@
+//! Conservative Taylor least squares (TLS) mapping (SPEC §4.1; IJNME paper §5).
+//!
+//! Per active cell `e` (see [`CellDomains`]) and per field, a quadratic Taylor
+//! reconstruction `f_hat_e = sum_i a_i psi_i` is fitted to the particles of the cell:
+//!
+//! * stress: full least squares (`a_1, a_2, a_3` free);
+//! * density `rho_p = m_p / V_p`: conservative, `a_1 = (sum_{p in e} m_p) / |e|`;
+//! * momentum density `rho_p v_p`: conservative, `a_1 = (sum_{p in e} m_p v_p) / |e|`.
+//!
+//! Since `int_e psi_2 = int_e psi_3 = 0`, `int_e rho_hat = sum m_p` and
+//! `int_e (rho v)_hat = sum m_p v_p` in every cell; with a Gauss rule exact for quadratics
+//! (2+ points) and a partition-of-unity basis the mapped mass `sum_i m_i` and momentum
+//! `sum_i p_i` equal the particle totals to round-off (IJNME §5.5).
+//!
+//! **Batches.** One parallel pass over the cells builds every cell's normal matrix
+//! `D = sum psi psi^T` (shared by all fields) and right-hand sides; one pass solves every
+//! cell's 3x3 (full) or 2x2 (conservative) system; the result is a flat `[N_e][3]`
+//! coefficient array per field.
+//!
+//! **Degenerate cells** (fewer points than unknowns, or a condition number of the block
+//! above [`MAX_CONDITION`]): with `method.degenerate_cells = "virtual_points"` (default) the
+//! reconstructions of the well-posed neighbouring cells are evaluated at the shared faces
+//! and added as data points (they enter `D` and the fitted coefficients, never `a_1`, so
+//! conservation is untouched); if that is still not enough, or with `"order_reduction"`,
+//! `psi_3` and then `psi_2` are dropped. A fit never produces NaN.
+//!
+//! **Density limiter.** A conservative quadratic fit can dip below zero in a cell whose
+//! density varies strongly; then `a_2, a_3` are scaled by
+//! `theta = a_1 / (a_1 - min_g rho_hat(x_g))` (Zhang–Shu), which keeps `a_1` (mass) and
+//! makes `rho_hat >= 0` at every Gauss point, so the lumped masses are non-negative and
+//! `M^C` is positive semi-definite.
+
+use super::quadrature::{integrate_mass_and_force, integrate_momentum, CellDomains, GaussPoints};
+use super::{CellScatter, GridFields, Mapping, RemedyCounts};
+use crate::config::DegenerateRemedy;
+use crate::grid::{Basis, Grid};
+use crate::numerics::gauss::GaussRule;
+use crate::numerics::taylor::{
+    add_rhs, solve, solve_reduced, FitKind, NormalMatrix, TaylorCell, MAX_CONDITION,
+};
+use crate::particles::{CellBins, Particles};
+use rayon::prelude::*;
+
+/// Cells per rayon task in the batched passes.
+const CELLS_PER_TASK: usize = 128;
+
+/// Per-cell sums of one pass over the particles.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellSums {
+    normal: NormalMatrix,
+    stress_rhs: [f64; 3],
+    density_rhs: [f64; 3],
+    mass: f64,
+}
+
+/// Outcome of the first fit of a cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum FirstFit {
+    Inactive,
+    Fitted([f64; 3]),
+    Degenerate,
+}
+
+/// The TLS mapping with Gauss quadrature.
+#[derive(Clone, Debug)]
+pub struct TlsMapping {
+    grid: Grid,
+    remedy: DegenerateRemedy,
+    points: GaussPoints,
+    domains: CellDomains,
+    taylor: Vec<TaylorCell>,
+    sums: Vec<CellSums>,
+    /// Per cell the momentum right-hand side and `sum_p m_p v_p`.
+    momentum_sums: Vec<([f64; 3], f64)>,
+    first_fit: Vec<FirstFit>,
+    /// Stress coefficients `[N_e][3]`.
+    pub stress: Vec<[f64; 3]>,
+    /// Density coefficients `[N_e][3]`.
+    pub density: Vec<[f64; 3]>,
+    /// Momentum-density coefficients `[N_e][3]`.
+    pub momentum: Vec<[f64; 3]>,
+    remedies: RemedyCounts,
+    scatter: CellScatter,
+}
+
+impl TlsMapping {
+    /// TLS on `grid` with an `gauss_points`-point Gauss rule per cell; `None` unless
+    /// `gauss_points` is between 2 (exact for the quadratic reconstruction) and
+    /// [`crate::numerics::gauss::MAX_POINTS`].
+    pub fn new(grid: Grid, gauss_points: usize, remedy: DegenerateRemedy) -> Option<Self> {
+        if gauss_points < 2 {
+            return None;
+        }
+        let rule = GaussRule::new(gauss_points)?;
+        let cells = grid.cells;
+        Some(Self {
+            grid,
+            remedy,
+            points: GaussPoints { rule, pieces: 1 },
+            domains: CellDomains::default(),
+            taylor: vec![TaylorCell::default(); cells],
+            sums: vec![CellSums::default(); cells],
+            momentum_sums: vec![([0.0; 3], 0.0); cells],
+            first_fit: vec![FirstFit::Inactive; cells],
+            stress: vec![[0.0; 3]; cells],
+            density: vec![[0.0; 3]; cells],
+            momentum: vec![[0.0; 3]; cells],
+            remedies: RemedyCounts::default(),
+            scatter: CellScatter::default(),
+        })
+    }
+
+    /// The active part of each cell used by the last mapping.
+    pub fn domains(&self) -> &CellDomains {
+        &self.domains
+    }
+
+    /// The Taylor basis of cell `cell` in the last mapping.
+    pub fn taylor_cell(&self, cell: usize) -> &TaylorCell {
+        &self.taylor[cell]
+    }
+
+    /// Bin-wise sums for stress and density, and the cell domains.
+    fn accumulate(&mut self, particles: &Particles, bins: &CellBins) {
+        self.domains.update(&self.grid, particles, bins);
+        let domains = &self.domains;
+        let (x, stress, mass, volume) = (
+            &particles.x,
+            &particles.stress,
+            &particles.mass,
+            &particles.volume,
+        );
+        self.taylor
+            .par_iter_mut()
+            .zip(self.sums.par_iter_mut())
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, (taylor, sums))| {
+                *sums = CellSums::default();
+                if !domains.is_active(cell) {
+                    return;
+                }
+                *taylor = TaylorCell::new(domains.lo[cell], domains.hi[cell]);
+                for p in bins.range(cell) {
+                    let psi = taylor.psi(x[p]);
+                    sums.normal.add(&psi);
+                    add_rhs(&mut sums.stress_rhs, &psi, stress[p]);
+                    add_rhs(&mut sums.density_rhs, &psi, mass[p] / volume[p]);
+                    sums.mass += mass[p];
+                }
+            });
+    }
+
+    /// Scale the density fits towards their mean where they dip below zero at a Gauss
+    /// point (conservative positivity limiter).
+    fn limit_density(&mut self) -> u64 {
+        let (domains, taylor, points) = (&self.domains, &self.taylor, &self.points);
+        self.density
+            .par_iter_mut()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .map(|(cell, a)| {
+                if !domains.is_active(cell) || a[0] <= 0.0 {
+                    return 0;
+                }
+                let mut lowest = f64::INFINITY;
+                points.for_each(domains.lo[cell], domains.hi[cell], |x, _| {
+                    lowest = lowest.min(taylor[cell].eval(a, x));
+                });
+                if lowest >= 0.0 {
+                    return 0;
+                }
+                let theta = a[0] / (a[0] - lowest);
+                a[1] *= theta;
+                a[2] *= theta;
+                1
+            })
+            .sum()
+    }
+}
+
+/// Fit one field in every active cell, in two batched passes: plain fits, then the
+/// remedies of the degenerate cells from their well-posed neighbours. `rhs(cell)` is the
+/// field's right-hand side, `kind(cell)` full or conservative.
+#[allow(clippy::too_many_arguments)]
+fn fit_field<R, K>(
+    grid: &Grid,
+    remedy: DegenerateRemedy,
+    domains: &CellDomains,
+    taylor: &[TaylorCell],
+    sums: &[CellSums],
+    rhs: R,
+    kind: K,
+    first_fit: &mut [FirstFit],
+    coefficients: &mut [[f64; 3]],
+) -> RemedyCounts
+where
+    R: Fn(usize) -> [f64; 3] + Sync,
+    K: Fn(usize) -> FitKind + Sync,
+{
+    first_fit
+        .par_iter_mut()
+        .with_min_len(CELLS_PER_TASK)
+        .enumerate()
+        .for_each(|(cell, first)| {
+            *first = if !domains.is_active(cell) {
+                FirstFit::Inactive
+            } else {
+                match solve(&sums[cell].normal, &rhs(cell), kind(cell), 3, MAX_CONDITION) {
+                    Some(a) => FirstFit::Fitted(a),
+                    None => FirstFit::Degenerate,
+                }
+            };
+        });
+    let first_fit = &*first_fit;
+    coefficients
+        .par_iter_mut()
+        .with_min_len(CELLS_PER_TASK)
+        .enumerate()
+        .map(|(cell, a)| {
+            let mut counts = RemedyCounts::default();
+            *a = match first_fit[cell] {
+                FirstFit::Inactive => [0.0; 3],
+                FirstFit::Fitted(fitted) => fitted,
+                FirstFit::Degenerate => {
+                    counts.degenerate_fits = 1;
+                    let mut normal = sums[cell].normal;
+                    let mut b = rhs(cell);
+                    let mut repaired = None;
+                    if remedy == DegenerateRemedy::VirtualPoints {
+                        // Neighbour cells and the faces they share with `cell`.
+                        let left = cell.checked_sub(1).map(|n| (n, grid.cell_left(cell)));
+                        let right =
+                            (cell + 1 < grid.cells).then(|| (cell + 1, grid.cell_left(cell + 1)));
+                        for (neighbour, face) in left.into_iter().chain(right) {
+                            if let FirstFit::Fitted(an) = first_fit[neighbour] {
+                                let value = taylor[neighbour].eval(&an, face);
+                                let psi = taylor[cell].psi(face);
+                                normal.add(&psi);
+                                add_rhs(&mut b, &psi, value);
+                            }
+                        }
+                        repaired = solve(&normal, &b, kind(cell), 3, MAX_CONDITION);
+                    }
+                    match repaired {
+                        Some(fitted) => {
+                            counts.virtual_point_fits = 1;
+                            fitted
+                        }
+                        None => {
+                            counts.order_reduced_fits = 1;
+                            solve_reduced(&normal, &b, kind(cell), MAX_CONDITION).0
+                        }
+                    }
+                }
+            };
+            counts
+        })
+        .reduce(RemedyCounts::default, |mut a, b| {
+            a += b;
+            a
+        })
+}
+
+impl Mapping for TlsMapping {
+    fn name(&self) -> &'static str {
+        "tls"
+    }
+
+    fn map_mass_and_internal_force<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+    ) {
+        self.accumulate(particles, bins);
+        let Self {
+            grid: mesh,
+            remedy,
+            domains,
+            taylor,
+            sums,
+            first_fit,
+            stress,
+            density,
+            ..
+        } = self;
+        let sums_ref = &*sums;
+        let mut counts = fit_field(
+            mesh,
+            *remedy,
+            domains,
+            taylor,
+            sums_ref,
+            |cell| sums_ref[cell].stress_rhs,
+            |_| FitKind::Full,
+            first_fit,
+            stress,
+        );
+        let domains_ref = &*domains;
+        counts += fit_field(
+            mesh,
+            *remedy,
+            domains,
+            taylor,
+            sums_ref,
+            |cell| sums_ref[cell].density_rhs,
+            |cell| FitKind::Conservative(sums_ref[cell].mass / domains_ref.length(cell)),
+            first_fit,
+            density,
+        );
+        counts.density_limited_fits = self.limit_density();
+        self.remedies += counts;
+        let (taylor, stress, density) = (&self.taylor, &self.stress, &self.density);
+        integrate_mass_and_force(
+            &mut self.scatter,
+            basis,
+            &self.domains,
+            &self.points,
+            |cell, x| taylor[cell].eval(&stress[cell], x),
+            |cell, x| taylor[cell].eval(&density[cell], x),
+            grid,
+        );
+    }
+
+    fn map_momentum<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+    ) {
+        let (x, mass, volume, v) = (
+            &particles.x,
+            &particles.mass,
+            &particles.volume,
+            &particles.v,
+        );
+        let (domains, taylor) = (&self.domains, &self.taylor);
+        self.momentum_sums
+            .par_iter_mut()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, (rhs, total))| {
+                *rhs = [0.0; 3];
+                *total = 0.0;
+                if !domains.is_active(cell) {
+                    return;
+                }
+                for p in bins.range(cell) {
+                    let psi = taylor[cell].psi(x[p]);
+                    add_rhs(rhs, &psi, mass[p] / volume[p] * v[p]);
+                    *total += mass[p] * v[p];
+                }
+            });
+        let momentum_sums = &self.momentum_sums;
+        let counts = fit_field(
+            &self.grid,
+            self.remedy,
+            domains,
+            taylor,
+            &self.sums,
+            |cell| momentum_sums[cell].0,
+            |cell| FitKind::Conservative(momentum_sums[cell].1 / domains.length(cell)),
+            &mut self.first_fit,
+            &mut self.momentum,
+        );
+        self.remedies += counts;
+        let (taylor, momentum) = (&self.taylor, &self.momentum);
+        integrate_momentum(
+            &mut self.scatter,
+            basis,
+            &self.domains,
+            &self.points,
+            |cell, x| taylor[cell].eval(&momentum[cell], x),
+            grid,
+        );
+    }
+
+    fn remedies(&self) -> RemedyCounts {
+        self.remedies
+    }
+}

@@ -1,0 +1,341 @@
+//! Taylor least squares on one interval (SPEC §4.1): the quadratic Taylor basis, the
+//! normal equations of a fit, and their small SPD solves with a condition check.
+//!
+//! On `e = [lo, hi]` with centre `x_c` and half width `dx`, and `s = (x - x_c) / dx`:
+//!
+//! ```text
+//! psi_1 = 1,   psi_2 = s,   psi_3 = s^2 / 2 - 1/6        (int_e psi_2 = int_e psi_3 = 0)
+//! ```
+//!
+//! so `int_e sum_i a_i psi_i = a_1 |e|` whatever `a_2, a_3` are. A *full* fit solves the
+//! 3x3 normal equations `D a = r`, `D = sum_p psi(x_p) psi(x_p)^T`, `r = sum_p psi(x_p) u_p`;
+//! a *conservative* fit fixes `a_1 = c / |e|` and solves the 2x2 block
+//! `D[2..3, 2..3] (a_2, a_3) = r[2..3] - a_1 D[2..3, 1]`, which is least squares on the
+//! residual data `u_p - a_1`. Both use the same `D` and `r`, so one pass over the points
+//! of a cell serves every field. Systems whose condition number exceeds
+//! [`MAX_CONDITION`] are refused ([`solve`] returns `None`); [`solve_reduced`] then drops
+//! `psi_3`, then `psi_2`, and never fails.
+
+/// Largest accepted condition number of a normal-equation block.
+pub const MAX_CONDITION: f64 = 1e8;
+
+/// The Taylor basis of one interval.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TaylorCell {
+    pub centre: f64,
+    pub half_width: f64,
+    inv_half_width: f64,
+}
+
+impl TaylorCell {
+    /// The basis on `[lo, hi]`, `hi > lo`.
+    pub fn new(lo: f64, hi: f64) -> Self {
+        let half_width = 0.5 * (hi - lo);
+        Self {
+            centre: 0.5 * (lo + hi),
+            half_width,
+            inv_half_width: 1.0 / half_width,
+        }
+    }
+
+    /// `[psi_1, psi_2, psi_3](x)`.
+    ///
+    /// ```
+    /// use tlsmpm::numerics::taylor::TaylorCell;
+    /// let cell = TaylorCell::new(0.0, 2.0);
+    /// assert_eq!(cell.psi(2.0), [1.0, 1.0, 0.5 - 1.0 / 6.0]);
+    /// ```
+    #[inline]
+    pub fn psi(&self, x: f64) -> [f64; 3] {
+        let s = (x - self.centre) * self.inv_half_width;
+        [1.0, s, 0.5 * s * s - 1.0 / 6.0]
+    }
+
+    /// `sum_i a_i psi_i(x)`.
+    #[inline]
+    pub fn eval(&self, a: &[f64; 3], x: f64) -> f64 {
+        let psi = self.psi(x);
+        a[0] + a[1] * psi[1] + a[2] * psi[2]
+    }
+}
+
+/// The symmetric normal matrix `D = sum psi psi^T` of one interval (upper triangle used).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NormalMatrix {
+    pub d: [[f64; 3]; 3],
+    /// Points added.
+    pub count: usize,
+}
+
+impl NormalMatrix {
+    /// Add the point with basis values `psi`.
+    #[inline]
+    pub fn add(&mut self, psi: &[f64; 3]) {
+        for i in 0..3 {
+            for j in i..3 {
+                self.d[i][j] += psi[i] * psi[j];
+            }
+        }
+        self.count += 1;
+    }
+}
+
+/// Add `psi * value` to a right-hand side.
+#[inline]
+pub fn add_rhs(rhs: &mut [f64; 3], psi: &[f64; 3], value: f64) {
+    for i in 0..3 {
+        rhs[i] += psi[i] * value;
+    }
+}
+
+/// Which coefficients are unknown.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FitKind {
+    /// All of `a_1..a_terms`.
+    Full,
+    /// `a_1` fixed to the given value; `a_2..a_terms` fitted.
+    Conservative(f64),
+}
+
+/// Fit the first `terms` (1..=3) Taylor functions; `None` if the normal-equation block is
+/// singular or its condition number exceeds `max_condition`. Unused coefficients are 0.
+pub fn solve(
+    normal: &NormalMatrix,
+    rhs: &[f64; 3],
+    kind: FitKind,
+    terms: usize,
+    max_condition: f64,
+) -> Option<[f64; 3]> {
+    let mut a = [0.0; 3];
+    let first = match kind {
+        FitKind::Full => 0,
+        FitKind::Conservative(a1) => {
+            a[0] = a1;
+            1
+        }
+    };
+    let n = terms.saturating_sub(first);
+    if n == 0 {
+        return Some(a);
+    }
+    // The block D[first..terms, first..terms] and its right-hand side.
+    let mut m = [[0.0; 3]; 3];
+    let mut b = [0.0; 3];
+    for i in 0..n {
+        for (j, entry) in m[i].iter_mut().enumerate().take(n) {
+            let (r, c) = (first + i.min(j), first + i.max(j));
+            *entry = normal.d[r][c];
+        }
+        b[i] = rhs[first + i]
+            - if first == 1 {
+                a[0] * normal.d[0][1 + i]
+            } else {
+                0.0
+            };
+    }
+    let x = solve_spd(&m, &b, n, max_condition)?;
+    a[first..first + n].copy_from_slice(&x[..n]);
+    Some(a)
+}
+
+/// [`solve`] with `terms = 3`, dropping `psi_3` and then `psi_2` until the block is well
+/// conditioned (order reduction, SPEC §4.1). Returns the coefficients and the number of
+/// terms used. With no usable point the fit is the constant `a_1` (0 for a full fit).
+pub fn solve_reduced(
+    normal: &NormalMatrix,
+    rhs: &[f64; 3],
+    kind: FitKind,
+    max_condition: f64,
+) -> ([f64; 3], usize) {
+    for terms in (1..=3).rev() {
+        if let Some(a) = solve(normal, rhs, kind, terms, max_condition) {
+            return (a, terms);
+        }
+    }
+    let a1 = match kind {
+        FitKind::Full => 0.0,
+        FitKind::Conservative(a1) => a1,
+    };
+    ([a1, 0.0, 0.0], 1)
+}
+
+/// Solve the `n x n` (n <= 3) SPD system `m x = b` by Cholesky, refusing it when the
+/// eigenvalue ratio exceeds `max_condition` or a pivot is not positive.
+fn solve_spd(m: &[[f64; 3]; 3], b: &[f64; 3], n: usize, max_condition: f64) -> Option<[f64; 3]> {
+    let (lo, hi) = eigen_range(m, n);
+    if !(lo > 0.0 && hi <= max_condition * lo) {
+        return None;
+    }
+    let mut l = [[0.0; 3]; 3];
+    for i in 0..n {
+        for j in 0..=i {
+            let s = m[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
+            if i == j {
+                if s <= 0.0 {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = [0.0; 3];
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i][k] * y[k];
+        }
+        y[i] = s / l[i][i];
+    }
+    let mut x = [0.0; 3];
+    for i in (0..n).rev() {
+        let mut s = y[i];
+        for k in i + 1..n {
+            s -= l[k][i] * x[k];
+        }
+        x[i] = s / l[i][i];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Smallest and largest eigenvalue of the symmetric `n x n` (n <= 3) matrix `m`, in closed
+/// form (trigonometric solution of the characteristic cubic for n = 3).
+fn eigen_range(m: &[[f64; 3]; 3], n: usize) -> (f64, f64) {
+    match n {
+        1 => (m[0][0], m[0][0]),
+        2 => {
+            let mean = 0.5 * (m[0][0] + m[1][1]);
+            let half_diff = 0.5 * (m[0][0] - m[1][1]);
+            let radius = half_diff.hypot(m[0][1]);
+            (mean - radius, mean + radius)
+        }
+        _ => {
+            let off = m[0][1] * m[0][1] + m[0][2] * m[0][2] + m[1][2] * m[1][2];
+            let q = (m[0][0] + m[1][1] + m[2][2]) / 3.0;
+            if off == 0.0 {
+                let d = [m[0][0], m[1][1], m[2][2]];
+                return (
+                    d.iter().copied().fold(f64::INFINITY, f64::min),
+                    d.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                );
+            }
+            let p2 =
+                (m[0][0] - q).powi(2) + (m[1][1] - q).powi(2) + (m[2][2] - q).powi(2) + 2.0 * off;
+            let p = (p2 / 6.0).sqrt();
+            let mut b = *m;
+            for (i, row) in b.iter_mut().enumerate() {
+                row[i] -= q;
+                for v in row.iter_mut() {
+                    *v /= p;
+                }
+            }
+            let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[1][2])
+                - b[0][1] * (b[0][1] * b[2][2] - b[1][2] * b[0][2])
+                + b[0][2] * (b[0][1] * b[1][2] - b[1][1] * b[0][2]);
+            let phi = (0.5 * det).clamp(-1.0, 1.0).acos() / 3.0;
+            let largest = q + 2.0 * p * phi.cos();
+            let smallest = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+            (smallest, largest)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn normal_of(cell: &TaylorCell, points: &[(f64, f64)]) -> (NormalMatrix, [f64; 3]) {
+        let mut normal = NormalMatrix::default();
+        let mut rhs = [0.0; 3];
+        for &(x, u) in points {
+            let psi = cell.psi(x);
+            normal.add(&psi);
+            add_rhs(&mut rhs, &psi, u);
+        }
+        (normal, rhs)
+    }
+
+    #[test]
+    fn taylor_functions_beyond_the_first_integrate_to_zero() {
+        let cell = TaylorCell::new(1.0, 4.0);
+        let rule = crate::numerics::gauss::GaussRule::new(2).unwrap();
+        let integrals = rule.mapped(1.0, 4.0).fold([0.0; 3], |mut acc, (x, w)| {
+            for (a, p) in acc.iter_mut().zip(cell.psi(x)) {
+                *a += w * p;
+            }
+            acc
+        });
+        assert!((integrals[0] - 3.0).abs() < 1e-14);
+        assert!(
+            integrals[1].abs() < 1e-14 && integrals[2].abs() < 1e-14,
+            "{integrals:?}"
+        );
+    }
+
+    #[test]
+    fn eigenvalues_of_a_known_matrix() {
+        // diag(1, 2, 4) rotated: eigenvalues stay 1 and 4 at the ends.
+        let m = [[2.5, 0.5, 0.0], [0.5, 2.5, 0.0], [0.0, 0.0, 4.0]];
+        let (lo, hi) = eigen_range(&m, 3);
+        assert!(
+            (lo - 2.0).abs() < 1e-12 && (hi - 4.0).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        let (lo, hi) = eigen_range(&m, 2);
+        assert!((lo - 2.0).abs() < 1e-12 && (hi - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn two_points_are_degenerate_for_three_terms_and_reduce_to_a_line() {
+        let cell = TaylorCell::new(0.0, 1.0);
+        let (normal, rhs) = normal_of(&cell, &[(0.2, 1.0), (0.7, 2.0)]);
+        assert!(solve(&normal, &rhs, FitKind::Full, 3, MAX_CONDITION).is_none());
+        let (a, terms) = solve_reduced(&normal, &rhs, FitKind::Full, MAX_CONDITION);
+        assert_eq!(terms, 2);
+        assert!((cell.eval(&a, 0.2) - 1.0).abs() < 1e-12);
+        assert!((cell.eval(&a, 0.7) - 2.0).abs() < 1e-12);
+        // No point at all: the conservative fit keeps a_1.
+        let (a, terms) = solve_reduced(
+            &NormalMatrix::default(),
+            &[0.0; 3],
+            FitKind::Conservative(3.0),
+            MAX_CONDITION,
+        );
+        assert_eq!((a, terms), ([3.0, 0.0, 0.0], 1));
+    }
+
+    proptest! {
+        /// A quadratic is reproduced exactly by the full fit from 3+ distinct points, and
+        /// the conservative fit with `a_1` = its cell mean reproduces it too.
+        #[test]
+        fn quadratics_are_reproduced(lo in -5.0f64..5.0, width in 0.1f64..3.0,
+                                     c in prop::array::uniform3(-2.0f64..2.0),
+                                     t in prop::collection::vec(0.0f64..1.0, 3..12)) {
+            let hi = lo + width;
+            let cell = TaylorCell::new(lo, hi);
+            let f = |x: f64| c[0] + c[1] * x + c[2] * x * x;
+            let mut xs: Vec<f64> = t.iter().map(|t| lo + t * width).collect();
+            xs.sort_by(f64::total_cmp);
+            xs.dedup_by(|a, b| (*a - *b).abs() < 1e-3 * width);
+            prop_assume!(xs.len() >= 3);
+            let spread = xs[xs.len() - 1] - xs[0];
+            prop_assume!(spread > 0.2 * width);
+            let points: Vec<(f64, f64)> = xs.iter().map(|&x| (x, f(x))).collect();
+            let (normal, rhs) = normal_of(&cell, &points);
+            if let Some(a) = solve(&normal, &rhs, FitKind::Full, 3, MAX_CONDITION) {
+                for x in [lo, 0.5 * (lo + hi), hi] {
+                    prop_assert!((cell.eval(&a, x) - f(x)).abs() < 1e-8 * (1.0 + f(x).abs()));
+                }
+                // Cell mean of the quadratic.
+                let mean = c[0] + c[1] * 0.5 * (lo + hi) + c[2] * (hi.powi(3) - lo.powi(3)) / (3.0 * width);
+                let b = solve(&normal, &rhs, FitKind::Conservative(mean), 3, MAX_CONDITION).unwrap();
+                prop_assert_eq!(b[0], mean);
+                for x in [lo, hi] {
+                    prop_assert!((cell.eval(&b, x) - f(x)).abs() < 1e-8 * (1.0 + f(x).abs()));
+                }
+            }
+        }
+    }
+}
