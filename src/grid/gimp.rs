@@ -2,14 +2,14 @@
 //! the particle domain `[x_1, x_2] = [x_p - l_p, x_p + l_p]` (see [`super::domain`]),
 //!
 //! ```text
-//! phi_bar_i  = (1 / (x_2 - x_1)) int_{x_1}^{x_2} phi_i dx        (exact: piecewise quadratic)
+//! phi_bar_i  = (1 / (x_2 - x_1)) int_{x_1}^{x_2} phi_i dx        (exact, by linear pieces)
 //! dphi_bar_i = (phi_i(x_2) - phi_i(x_1)) / (x_2 - x_1)
 //! ```
 //!
 //! The averaged functions are a non-negative partition of unity and their gradients sum to
 //! zero. A point evaluation ([`super::Basis::eval`]) is the plain linear hat.
 
-use super::domain::{hat_antiderivative, DomainBasis, DomainWeight};
+use super::domain::{hat, DomainBasis, DomainWeight};
 use super::Grid;
 
 /// The exact domain average of the hat.
@@ -29,8 +29,22 @@ impl DomainWeight for GimpAverage {
         _hat1: f64,
         _hat2: f64,
     ) -> f64 {
-        (hat_antiderivative(grid, node, x2) - hat_antiderivative(grid, node, x1))
-            * (grid.h * inv_length)
+        // The hat is linear between the nodes X_{node-1}, X_node, X_{node+1}: on each piece
+        // of [x1, x2] between them its mean is its midpoint value. Summing pieces avoids the
+        // cancellation of an antiderivative difference on short domains.
+        let node_x = grid.cell_left(node);
+        let left_x = node
+            .checked_sub(1)
+            .map_or(node_x - grid.h, |n| grid.cell_left(n));
+        let mut start = x1;
+        let mut integral = 0.0;
+        for end in [left_x, node_x, grid.cell_left(node + 1), x2] {
+            if end > start && end <= x2 {
+                integral += hat(grid, node, 0.5 * (start + end)) * (end - start);
+                start = end;
+            }
+        }
+        integral * inv_length
     }
 }
 
@@ -39,7 +53,7 @@ pub type GimpBasis = DomainBasis<GimpAverage>;
 
 #[cfg(test)]
 mod tests {
-    use super::super::domain::{clipped_domain, hat};
+    use super::super::domain::clipped_domain;
     use super::*;
     use crate::grid::{Basis, Shape};
     use proptest::prelude::*;
