@@ -218,6 +218,21 @@ pub struct MethodConfig {
     /// Remedy for cells whose least-squares fit is degenerate.
     #[serde(default)]
     pub degenerate_cells: DegenerateRemedy,
+    /// How DDMPM computes its node integrals `V_j`, `G_ji`. Default: see
+    /// [`MethodConfig::node_integrals`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node_integrals: Option<NodeIntegrals>,
+}
+
+/// `method.node_integrals`: the quadrature of the DDMPM node integrals (SPEC §3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeIntegrals {
+    /// Particle quadrature `sum_p V_p ...`, as in the original DDMPM.
+    Particles,
+    /// Exact integrals over the material domain (the cells holding particles, clipped to
+    /// the material extent), as the Gauss quadrature of a reconstruction integrates.
+    Domain,
 }
 
 /// `method.degenerate_cells` (SPEC §4.1).
@@ -246,6 +261,7 @@ impl Default for MethodConfig {
             scheme: Scheme::default(),
             subpoints: 0,
             acceleration_mass: None,
+            node_integrals: None,
             gauss_points: 0,
             degenerate_cells: DegenerateRemedy::default(),
         }
@@ -253,6 +269,16 @@ impl Default for MethodConfig {
 }
 
 impl MethodConfig {
+    /// `method.node_integrals` if given, else particle quadrature for the direct mapping
+    /// and exact domain integrals for reconstructions (which replace particle quadrature
+    /// by Gauss quadrature everywhere; this reproduces the published DDMPM-TLS error).
+    pub fn node_integrals(&self) -> NodeIntegrals {
+        self.node_integrals.unwrap_or(match self.reconstruction {
+            ReconstructionKind::None => NodeIntegrals::Particles,
+            _ => NodeIntegrals::Domain,
+        })
+    }
+
     /// The mass matrix of the acceleration solve: `method.acceleration_mass` if given,
     /// else the same as `method.mass`.
     pub fn acceleration_mass(&self) -> MassKind {

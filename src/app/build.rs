@@ -107,7 +107,10 @@ fn with_basis<M: Mapping + 'static>(
     let grid = parts.grid;
     match scenario.method.basis {
         BasisKind::Linear => stepper(scenario, parts, LinearBasis::new(grid), mapping, particles),
-        BasisKind::Ddmpm => stepper(scenario, parts, DdmpmBasis::new(grid), mapping, particles),
+        BasisKind::Ddmpm => {
+            let basis = DdmpmBasis::with_integrals(grid, scenario.method.node_integrals());
+            stepper(scenario, parts, basis, mapping, particles)
+        }
         BasisKind::Gimp => stepper(scenario, parts, GimpBasis::new(grid), mapping, particles),
         BasisKind::Cpdi => stepper(scenario, parts, CpdiBasis::new(grid), mapping, particles),
         BasisKind::Bspline => {

@@ -5,6 +5,8 @@
 //! stack-allocated [`Shape`] (no allocation per particle). Kernels are generic over the
 //! basis, so the evaluation is monomorphised and inlined in the particle loops.
 
+use super::Grid;
+
 /// Most non-zero functions a basis may have at one point (B-splines up to order 15).
 pub const MAX_SUPPORT: usize = 16;
 
@@ -112,5 +114,36 @@ impl ParticleQuadrature<'_> {
     /// Number of cells.
     pub fn cells(&self) -> usize {
         self.cell_start.len().saturating_sub(1)
+    }
+
+    /// The material extent `[min_p (x_p - V_p/2), max_p (x_p + V_p/2)]` (parallel min/max,
+    /// exact and order independent).
+    pub fn material_extent(&self) -> (f64, f64) {
+        use rayon::prelude::*;
+        let (x, volume) = (self.x, self.volume);
+        (0..x.len())
+            .into_par_iter()
+            .map(|p| (x[p] - 0.5 * volume[p], x[p] + 0.5 * volume[p]))
+            .reduce(
+                || (f64::INFINITY, f64::NEG_INFINITY),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            )
+    }
+
+    /// The active part `[lo, hi]` of cell `cell` of `grid`: the cell clipped to the
+    /// material `extent`, or `None` when the cell holds no particle or nothing is left.
+    ///
+    /// ```
+    /// use tlsmpm::grid::{Grid, ParticleQuadrature};
+    /// let grid = Grid::new(1.0, 2);
+    /// let q = ParticleQuadrature { x: &[0.1, 0.6], volume: &[0.2, 0.2], cell_start: &[0, 1, 2] };
+    /// let extent = q.material_extent();
+    /// assert_eq!(q.active_part(&grid, 1, extent), Some((0.5, 0.7)));
+    /// ```
+    #[inline]
+    pub fn active_part(&self, grid: &Grid, cell: usize, extent: (f64, f64)) -> Option<(f64, f64)> {
+        let left = grid.cell_left(cell);
+        let (lo, hi) = (left.max(extent.0), (left + grid.h).min(extent.1));
+        (!self.range(cell).is_empty() && hi > lo).then_some((lo, hi))
     }
 }

@@ -9,11 +9,17 @@
 //! grad_bar_i(x)   = alpha(x) dphi_i(x) + (1 - alpha(x)) grad_tilde_i(x)
 //! ```
 //!
-//! **Quadrature choice**: the node integrals `V_j` and `G_ji` run over the material domain
-//! and are computed by particle quadrature, `V_j = sum_p V_p phi_j(x_p)` and
-//! `G_ji = sum_p V_p phi_j(x_p) dphi_i(x_p)`, from the configuration at the start of every
-//! step, as in the original DDMPM. Because `dphi` is constant in a cell, each cell needs
-//! only the two sums `S_e^L = sum_p V_p phi_e(x_p)` and `S_e^R = sum_p V_p phi_{e+1}(x_p)`:
+//! **Quadrature choice** (`method.node_integrals`): the node integrals `V_j` and `G_ji` run
+//! over the material domain, recomputed from the configuration at the start of every step.
+//! With `particles` (default for the direct mapping, as in the original DDMPM) they are
+//! particle sums, `V_j = sum_p V_p phi_j(x_p)` and `G_ji = sum_p V_p phi_j(x_p) dphi_i(x_p)`;
+//! with `domain` (default with a reconstruction, whose Gauss quadrature replaces particle
+//! quadrature) they are exact integrals over the active part `[lo, hi]` of every cell that
+//! holds particles (the cell clipped to the material extent). Because `dphi` is constant
+//! in a cell, each cell needs only the two integrals `S_e^L = int_e phi_e` and
+//! `S_e^R = int_e phi_{e+1}` (particle sums `sum_p V_p phi(x_p)`, or exactly
+//! `h [(b - a) - (b^2 - a^2)/2]` and `h (b^2 - a^2)/2` for the active part
+//! `[x_e + a h, x_e + b h]`):
 //!
 //! ```text
 //! V_j = S_j^L + S_{j-1}^R,   G_{j,j-1} = -S_{j-1}^R / h,   G_{jj} = (S_{j-1}^R - S_j^L) / h,   G_{j,j+1} = S_j^L / h
@@ -24,6 +30,7 @@
 //! material (`V_j = 0`) contribute no `grad_tilde`.
 
 use super::{Basis, Grid, ParticleQuadrature, Shape};
+use crate::config::NodeIntegrals;
 use rayon::prelude::*;
 
 /// Cells per rayon task when the node integrals are accumulated.
@@ -33,6 +40,7 @@ const CELLS_PER_TASK: usize = 256;
 #[derive(Clone, Debug)]
 pub struct DdmpmBasis {
     grid: Grid,
+    integrals: NodeIntegrals,
     /// Per cell `[S^L, S^R]`.
     cell_integrals: Vec<[f64; 2]>,
     /// Per node `G_{j,i} / V_j` for `i = j - 1, j, j + 1`.
@@ -40,10 +48,17 @@ pub struct DdmpmBasis {
 }
 
 impl DdmpmBasis {
-    /// The basis on `grid`; [`Basis::update`] must run before the first evaluation.
+    /// The basis on `grid` with node integrals by particle quadrature; [`Basis::update`]
+    /// must run before the first evaluation.
     pub fn new(grid: Grid) -> Self {
+        Self::with_integrals(grid, NodeIntegrals::Particles)
+    }
+
+    /// The basis on `grid` with the given quadrature of the node integrals.
+    pub fn with_integrals(grid: Grid, integrals: NodeIntegrals) -> Self {
         Self {
             grid,
+            integrals,
             cell_integrals: vec![[0.0; 2]; grid.cells],
             weighted_integrals: vec![[0.0; 3]; grid.cells + 1],
         }
@@ -105,6 +120,11 @@ impl Basis for DdmpmBasis {
 
     fn update(&mut self, quadrature: ParticleQuadrature<'_>) {
         let grid = self.grid;
+        let integrals = self.integrals;
+        let extent = match integrals {
+            NodeIntegrals::Domain => quadrature.material_extent(),
+            NodeIntegrals::Particles => (0.0, 0.0),
+        };
         self.cell_integrals
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
@@ -112,6 +132,15 @@ impl Basis for DdmpmBasis {
             .for_each(|(cell, sums)| {
                 let left = grid.cell_left(cell);
                 let mut s = [0.0; 2];
+                if integrals == NodeIntegrals::Domain {
+                    if let Some((lo, hi)) = quadrature.active_part(&grid, cell, extent) {
+                        let (a, b) = ((lo - left) * grid.inv_h, (hi - left) * grid.inv_h);
+                        let right = 0.5 * (b * b - a * a);
+                        s = [grid.h * ((b - a) - right), grid.h * right];
+                    }
+                    *sums = s;
+                    return;
+                }
                 for p in quadrature.range(cell) {
                     let xi = (quadrature.x[p] - left) * grid.inv_h;
                     let v = quadrature.volume[p];

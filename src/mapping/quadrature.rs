@@ -16,10 +16,9 @@
 
 use super::scatter::add_outer;
 use super::{CellScatter, GridFields};
-use crate::grid::{Basis, Grid, Shape};
+use crate::grid::{Basis, Grid, ParticleQuadrature, Shape};
 use crate::numerics::gauss::GaussRule;
 use crate::particles::{CellBins, Particles};
-use rayon::prelude::*;
 
 /// The active part `[lo, hi]` of every cell (`lo == hi` when inactive).
 #[derive(Clone, Debug, Default)]
@@ -31,27 +30,21 @@ pub struct CellDomains {
 impl CellDomains {
     /// Recompute from the binned particles.
     pub fn update(&mut self, grid: &Grid, particles: &Particles, bins: &CellBins) {
-        let (x, volume) = (&particles.x, &particles.volume);
-        let (bottom, top) = (0..particles.len())
-            .into_par_iter()
-            .map(|p| (x[p] - 0.5 * volume[p], x[p] + 0.5 * volume[p]))
-            .reduce(
-                || (f64::INFINITY, f64::NEG_INFINITY),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            );
-        let cells = grid.cells;
-        self.lo.resize(cells, 0.0);
-        self.hi.resize(cells, 0.0);
-        for e in 0..cells {
-            let left = grid.cell_left(e);
-            let (lo, hi) = (left.max(bottom), (left + grid.h).min(top));
-            if bins.range(e).is_empty() || hi <= lo {
-                self.lo[e] = left;
-                self.hi[e] = left;
-            } else {
-                self.lo[e] = lo;
-                self.hi[e] = hi;
-            }
+        let quadrature = ParticleQuadrature {
+            x: &particles.x,
+            volume: &particles.volume,
+            cell_start: &bins.cell_start,
+        };
+        let extent = quadrature.material_extent();
+        self.lo.resize(grid.cells, 0.0);
+        self.hi.resize(grid.cells, 0.0);
+        for cell in 0..grid.cells {
+            let left = grid.cell_left(cell);
+            let (lo, hi) = quadrature
+                .active_part(grid, cell, extent)
+                .unwrap_or((left, left));
+            self.lo[cell] = lo;
+            self.hi[cell] = hi;
         }
     }
 
