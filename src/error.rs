@@ -47,6 +47,14 @@ pub enum Error {
         step: usize,
         time: f64,
     },
+    /// A particle's volume became zero or negative (`1 + deps <= 0`: the grid velocity
+    /// field folded the material).
+    #[error("non-positive volume of particle {particle} at step {step} (t = {time:e} s)")]
+    CollapsedVolume {
+        particle: usize,
+        step: usize,
+        time: f64,
+    },
     /// A particle moved outside the background grid.
     #[error("particle {particle} left the grid (x = {x:e}) at step {step} (t = {time:e} s)")]
     LeftGrid {

@@ -51,9 +51,10 @@ pub fn build_simulation(
         ReconstructionKind::Tls => {
             let points = gauss_points(scenario);
             let mapping =
-                TlsMapping::new(grid, points, method.degenerate_cells).ok_or_else(|| {
-                    Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
-                })?;
+                TlsMapping::new(grid, points, method.degenerate_cells, method.cell_totals)
+                    .ok_or_else(|| {
+                        Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
+                    })?;
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         reconstruction => {

@@ -12,7 +12,8 @@
 //! clipped to the material extent `[min_p (x_p - V_p/2), max_p (x_p + V_p/2)]`. For a cell
 //! inside the material this is the whole cell; in the cell at a free surface (the top of a
 //! compacting column) it keeps the reconstruction from being extrapolated over empty space
-//! and integrated there. Cells without particles contribute nothing.
+//! and integrated there. Cells without particles contribute nothing (with
+//! `method.cell_totals = "domains"`: cells the material extent does not overlap).
 
 use super::scatter::add_outer;
 use super::{CellScatter, GridFields};
@@ -28,8 +29,15 @@ pub struct CellDomains {
 }
 
 impl CellDomains {
-    /// Recompute from the binned particles.
-    pub fn update(&mut self, grid: &Grid, particles: &Particles, bins: &CellBins) {
+    /// Recompute from the binned particles. With `require_particles`, only cells holding a
+    /// particle centre are active; otherwise every cell the material extent overlaps.
+    pub fn update(
+        &mut self,
+        grid: &Grid,
+        particles: &Particles,
+        bins: &CellBins,
+        require_particles: bool,
+    ) {
         let quadrature = ParticleQuadrature {
             x: &particles.x,
             volume: &particles.volume,
@@ -40,9 +48,13 @@ impl CellDomains {
         self.hi.resize(grid.cells, 0.0);
         for cell in 0..grid.cells {
             let left = grid.cell_left(cell);
-            let (lo, hi) = quadrature
-                .active_part(grid, cell, extent)
-                .unwrap_or((left, left));
+            let clipped = (left.max(extent.0), (left + grid.h).min(extent.1));
+            let (lo, hi) = if require_particles {
+                quadrature.active_part(grid, cell, extent)
+            } else {
+                (clipped.1 > clipped.0).then_some(clipped)
+            }
+            .unwrap_or((left, left));
             self.lo[cell] = lo;
             self.hi[cell] = hi;
         }

@@ -18,7 +18,7 @@
 //! coefficient array per field.
 //!
 //! **Degenerate cells** (fewer points than unknowns, or a condition number of the block
-//! above [`MAX_CONDITION`]): with `method.degenerate_cells = "virtual_points"` (default) the
+//! not well posed, see [`crate::numerics::taylor`]): with `method.degenerate_cells = "virtual_points"` (default) the
 //! reconstructions of the well-posed neighbouring cells are evaluated at the shared faces
 //! and added as data points (they enter `D` and the fitted coefficients, never `a_1`, so
 //! conservation is untouched); if that is still not enough, or with `"order_reduction"`,
@@ -32,12 +32,10 @@
 
 use super::quadrature::{integrate_mass_and_force, integrate_momentum, CellDomains, GaussPoints};
 use super::{CellScatter, GridFields, Mapping, RemedyCounts};
-use crate::config::DegenerateRemedy;
+use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
 use crate::numerics::gauss::GaussRule;
-use crate::numerics::taylor::{
-    add_rhs, solve, solve_reduced, FitKind, NormalMatrix, TaylorCell, MAX_CONDITION,
-};
+use crate::numerics::taylor::{add_rhs, solve, solve_reduced, FitKind, NormalMatrix, TaylorCell};
 use crate::particles::{CellBins, Particles};
 use rayon::prelude::*;
 
@@ -66,6 +64,7 @@ enum FirstFit {
 pub struct TlsMapping {
     grid: Grid,
     remedy: DegenerateRemedy,
+    totals: CellTotals,
     points: GaussPoints,
     domains: CellDomains,
     taylor: Vec<TaylorCell>,
@@ -87,7 +86,12 @@ impl TlsMapping {
     /// TLS on `grid` with an `gauss_points`-point Gauss rule per cell; `None` unless
     /// `gauss_points` is between 2 (exact for the quadratic reconstruction) and
     /// [`crate::numerics::gauss::MAX_POINTS`].
-    pub fn new(grid: Grid, gauss_points: usize, remedy: DegenerateRemedy) -> Option<Self> {
+    pub fn new(
+        grid: Grid,
+        gauss_points: usize,
+        remedy: DegenerateRemedy,
+        totals: CellTotals,
+    ) -> Option<Self> {
         if gauss_points < 2 {
             return None;
         }
@@ -96,6 +100,7 @@ impl TlsMapping {
         Some(Self {
             grid,
             remedy,
+            totals,
             points: GaussPoints { rule, pieces: 1 },
             domains: CellDomains::default(),
             taylor: vec![TaylorCell::default(); cells],
@@ -122,8 +127,10 @@ impl TlsMapping {
 
     /// Bin-wise sums for stress and density, and the cell domains.
     fn accumulate(&mut self, particles: &Particles, bins: &CellBins) {
-        self.domains.update(&self.grid, particles, bins);
-        let domains = &self.domains;
+        let by_domains = self.totals == CellTotals::Domains;
+        self.domains
+            .update(&self.grid, particles, bins, !by_domains);
+        let (domains, grid) = (&self.domains, &self.grid);
         let (x, stress, mass, volume) = (
             &particles.x,
             &particles.stress,
@@ -147,6 +154,9 @@ impl TlsMapping {
                     add_rhs(&mut sums.stress_rhs, &psi, stress[p]);
                     add_rhs(&mut sums.density_rhs, &psi, mass[p] / volume[p]);
                     sums.mass += mass[p];
+                }
+                if by_domains {
+                    sums.mass = domain_share(grid, bins, x, volume, cell, |p| mass[p]);
                 }
             });
     }
@@ -179,6 +189,35 @@ impl TlsMapping {
     }
 }
 
+/// `sum_p q(p) |[x_p - l_p, x_p + l_p] ∩ cell| / |[x_p - l_p, x_p + l_p]|` over the
+/// particles of `cell` and its two neighbours, with `l_p = min(V_p / 2, h)` and the domain
+/// clipped to the grid (`method.cell_totals = "domains"`). Each particle's fractions over
+/// the cells its domain overlaps (all within one cell of its own) sum to 1, so the totals
+/// stay exactly conservative.
+fn domain_share<Q: Fn(usize) -> f64>(
+    grid: &Grid,
+    bins: &CellBins,
+    x: &[f64],
+    volume: &[f64],
+    cell: usize,
+    quantity: Q,
+) -> f64 {
+    let first = cell.saturating_sub(1);
+    let last = (cell + 1).min(grid.cells - 1);
+    let (left, right) = (grid.cell_left(cell), grid.cell_left(cell + 1));
+    let (start, end) = (grid.origin, grid.origin + grid.length);
+    let mut total = 0.0;
+    for p in bins.cell_start[first]..bins.cell_start[last + 1] {
+        let half = (0.5 * volume[p]).min(grid.h);
+        let (a, b) = ((x[p] - half).max(start), (x[p] + half).min(end));
+        let overlap = b.min(right) - a.max(left);
+        if overlap > 0.0 {
+            total += quantity(p) * overlap / (b - a);
+        }
+    }
+    total
+}
+
 /// Fit one field in every active cell, in two batched passes: plain fits, then the
 /// remedies of the degenerate cells from their well-posed neighbours. `rhs(cell)` is the
 /// field's right-hand side, `kind(cell)` full or conservative.
@@ -206,7 +245,7 @@ where
             *first = if !domains.is_active(cell) {
                 FirstFit::Inactive
             } else {
-                match solve(&sums[cell].normal, &rhs(cell), kind(cell), 3, MAX_CONDITION) {
+                match solve(&sums[cell].normal, &rhs(cell), kind(cell), 3) {
                     Some(a) => FirstFit::Fitted(a),
                     None => FirstFit::Degenerate,
                 }
@@ -240,7 +279,7 @@ where
                                 add_rhs(&mut b, &psi, value);
                             }
                         }
-                        repaired = solve(&normal, &b, kind(cell), 3, MAX_CONDITION);
+                        repaired = solve(&normal, &b, kind(cell), 3);
                     }
                     match repaired {
                         Some(fitted) => {
@@ -249,7 +288,7 @@ where
                         }
                         None => {
                             counts.order_reduced_fits = 1;
-                            solve_reduced(&normal, &b, kind(cell), MAX_CONDITION).0
+                            solve_reduced(&normal, &b, kind(cell)).0
                         }
                     }
                 }
@@ -337,7 +376,8 @@ impl Mapping for TlsMapping {
             &particles.volume,
             &particles.v,
         );
-        let (domains, taylor) = (&self.domains, &self.taylor);
+        let (domains, taylor, mesh) = (&self.domains, &self.taylor, &self.grid);
+        let by_domains = self.totals == CellTotals::Domains;
         self.momentum_sums
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
@@ -352,6 +392,9 @@ impl Mapping for TlsMapping {
                     let psi = taylor[cell].psi(x[p]);
                     add_rhs(rhs, &psi, mass[p] / volume[p] * v[p]);
                     *total += mass[p] * v[p];
+                }
+                if by_domains {
+                    *total = domain_share(mesh, bins, x, volume, cell, |p| mass[p] * v[p]);
                 }
             });
         let momentum_sums = &self.momentum_sums;

@@ -12,12 +12,23 @@
 //! a *conservative* fit fixes `a_1 = c / |e|` and solves the 2x2 block
 //! `D[2..3, 2..3] (a_2, a_3) = r[2..3] - a_1 D[2..3, 1]`, which is least squares on the
 //! residual data `u_p - a_1`. Both use the same `D` and `r`, so one pass over the points
-//! of a cell serves every field. Systems whose condition number exceeds
-//! [`MAX_CONDITION`] are refused ([`solve`] returns `None`); [`solve_reduced`] then drops
-//! `psi_3`, then `psi_2`, and never fails.
+//! of a cell serves every field.
+//!
+//! **Well-posedness.** A block is accepted when the points excite every fitted function:
+//! with `n` points and the moments of evenly spread points `S = diag(1, 1/3, 1/45)`
+//! (`S_i = (1/2) int_{-1}^{1} psi_i^2 ds`), the smallest eigenvalue of the scaled block
+//! `D_ij / (n sqrt(S_i S_j))` must be at least [`MIN_SPREAD`] (it is 1 for evenly spread
+//! points and bounded by 9 above, so this also bounds the condition number by
+//! `9 / MIN_SPREAD`). Two points for three unknowns, or one point near the centre for a
+//! slope, fail the test ([`solve`] returns `None`) instead of producing a wild
+//! extrapolation; [`solve_reduced`] then drops `psi_3`, then `psi_2`, and never fails.
 
-/// Largest accepted condition number of a normal-equation block.
-pub const MAX_CONDITION: f64 = 1e8;
+/// Smallest accepted eigenvalue of the scaled normal-equation block.
+pub const MIN_SPREAD: f64 = 1e-3;
+
+/// `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds`: the mean square of each Taylor function over
+/// evenly spread points.
+const EVEN_MOMENTS: [f64; 3] = [1.0, 1.0 / 3.0, 1.0 / 45.0];
 
 /// The Taylor basis of one interval.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -98,13 +109,12 @@ pub enum FitKind {
 }
 
 /// Fit the first `terms` (1..=3) Taylor functions; `None` if the normal-equation block is
-/// singular or its condition number exceeds `max_condition`. Unused coefficients are 0.
+/// not well posed (see the module doc). Unused coefficients are 0.
 pub fn solve(
     normal: &NormalMatrix,
     rhs: &[f64; 3],
     kind: FitKind,
     terms: usize,
-    max_condition: f64,
 ) -> Option<[f64; 3]> {
     let mut a = [0.0; 3];
     let first = match kind {
@@ -133,7 +143,19 @@ pub fn solve(
                 0.0
             };
     }
-    let x = solve_spd(&m, &b, n, max_condition)?;
+    let mut scaled = [[0.0; 3]; 3];
+    let count = normal.count.max(1) as f64;
+    for i in 0..n {
+        for j in 0..n {
+            let moments = (EVEN_MOMENTS[first + i] * EVEN_MOMENTS[first + j]).sqrt();
+            scaled[i][j] = m[i][j] / (count * moments);
+        }
+    }
+    let (lo, hi) = eigen_range(&scaled, n);
+    if !(lo >= MIN_SPREAD && hi.is_finite()) {
+        return None;
+    }
+    let x = solve_spd(&m, &b, n)?;
     a[first..first + n].copy_from_slice(&x[..n]);
     Some(a)
 }
@@ -141,14 +163,9 @@ pub fn solve(
 /// [`solve`] with `terms = 3`, dropping `psi_3` and then `psi_2` until the block is well
 /// conditioned (order reduction, SPEC §4.1). Returns the coefficients and the number of
 /// terms used. With no usable point the fit is the constant `a_1` (0 for a full fit).
-pub fn solve_reduced(
-    normal: &NormalMatrix,
-    rhs: &[f64; 3],
-    kind: FitKind,
-    max_condition: f64,
-) -> ([f64; 3], usize) {
+pub fn solve_reduced(normal: &NormalMatrix, rhs: &[f64; 3], kind: FitKind) -> ([f64; 3], usize) {
     for terms in (1..=3).rev() {
-        if let Some(a) = solve(normal, rhs, kind, terms, max_condition) {
+        if let Some(a) = solve(normal, rhs, kind, terms) {
             return (a, terms);
         }
     }
@@ -159,13 +176,9 @@ pub fn solve_reduced(
     ([a1, 0.0, 0.0], 1)
 }
 
-/// Solve the `n x n` (n <= 3) SPD system `m x = b` by Cholesky, refusing it when the
-/// eigenvalue ratio exceeds `max_condition` or a pivot is not positive.
-fn solve_spd(m: &[[f64; 3]; 3], b: &[f64; 3], n: usize, max_condition: f64) -> Option<[f64; 3]> {
-    let (lo, hi) = eigen_range(m, n);
-    if !(lo > 0.0 && hi <= max_condition * lo) {
-        return None;
-    }
+/// Solve the `n x n` (n <= 3) SPD system `m x = b` by Cholesky; `None` if a pivot is not
+/// positive.
+fn solve_spd(m: &[[f64; 3]; 3], b: &[f64; 3], n: usize) -> Option<[f64; 3]> {
     let mut l = [[0.0; 3]; 3];
     for i in 0..n {
         for j in 0..=i {
@@ -291,8 +304,8 @@ mod tests {
     fn two_points_are_degenerate_for_three_terms_and_reduce_to_a_line() {
         let cell = TaylorCell::new(0.0, 1.0);
         let (normal, rhs) = normal_of(&cell, &[(0.2, 1.0), (0.7, 2.0)]);
-        assert!(solve(&normal, &rhs, FitKind::Full, 3, MAX_CONDITION).is_none());
-        let (a, terms) = solve_reduced(&normal, &rhs, FitKind::Full, MAX_CONDITION);
+        assert!(solve(&normal, &rhs, FitKind::Full, 3).is_none());
+        let (a, terms) = solve_reduced(&normal, &rhs, FitKind::Full);
         assert_eq!(terms, 2);
         assert!((cell.eval(&a, 0.2) - 1.0).abs() < 1e-12);
         assert!((cell.eval(&a, 0.7) - 2.0).abs() < 1e-12);
@@ -301,9 +314,33 @@ mod tests {
             &NormalMatrix::default(),
             &[0.0; 3],
             FitKind::Conservative(3.0),
-            MAX_CONDITION,
         );
         assert_eq!((a, terms), ([3.0, 0.0, 0.0], 1));
+        // One point near the centre cannot carry a slope: a conservative fit stays constant
+        // instead of extrapolating (value - a_1) / s over the cell.
+        let (normal, rhs) = normal_of(&cell, &[(0.505, 7.0)]);
+        let (a, terms) = solve_reduced(&normal, &rhs, FitKind::Conservative(2.0));
+        assert_eq!((a, terms), ([2.0, 0.0, 0.0], 1));
+        // Near the face it can.
+        let (normal, rhs) = normal_of(&cell, &[(0.95, 7.0)]);
+        let (a, terms) = solve_reduced(&normal, &rhs, FitKind::Conservative(2.0));
+        assert_eq!(terms, 2);
+        assert!((cell.eval(&a, 0.95) - 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn evenly_spread_points_have_unit_scaled_moments() {
+        // The midpoint rule with many points approximates the even moments.
+        let cell = TaylorCell::new(-1.0, 1.0);
+        let n = 2000;
+        let points: Vec<(f64, f64)> = (0..n)
+            .map(|k| (-1.0 + (k as f64 + 0.5) * 2.0 / n as f64, 0.0))
+            .collect();
+        let (normal, _) = normal_of(&cell, &points);
+        for (i, moment) in EVEN_MOMENTS.iter().enumerate() {
+            let scaled = normal.d[i][i] / (n as f64 * moment);
+            assert!((scaled - 1.0).abs() < 1e-5, "{i}: {scaled}");
+        }
     }
 
     proptest! {
@@ -324,13 +361,13 @@ mod tests {
             prop_assume!(spread > 0.2 * width);
             let points: Vec<(f64, f64)> = xs.iter().map(|&x| (x, f(x))).collect();
             let (normal, rhs) = normal_of(&cell, &points);
-            if let Some(a) = solve(&normal, &rhs, FitKind::Full, 3, MAX_CONDITION) {
+            if let Some(a) = solve(&normal, &rhs, FitKind::Full, 3) {
                 for x in [lo, 0.5 * (lo + hi), hi] {
                     prop_assert!((cell.eval(&a, x) - f(x)).abs() < 1e-8 * (1.0 + f(x).abs()));
                 }
                 // Cell mean of the quadratic.
                 let mean = c[0] + c[1] * 0.5 * (lo + hi) + c[2] * (hi.powi(3) - lo.powi(3)) / (3.0 * width);
-                let b = solve(&normal, &rhs, FitKind::Conservative(mean), 3, MAX_CONDITION).unwrap();
+                let b = solve(&normal, &rhs, FitKind::Conservative(mean), 3).unwrap();
                 prop_assert_eq!(b[0], mean);
                 for x in [lo, hi] {
                     prop_assert!((cell.eval(&b, x) - f(x)).abs() < 1e-8 * (1.0 + f(x).abs()));

@@ -186,6 +186,13 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                 Failure::Velocity => "velocity",
                 Failure::Stress => "stress",
                 Failure::Position => "position",
+                Failure::Volume => {
+                    return Err(Error::CollapsedVolume {
+                        particle: particles.id[particle],
+                        step,
+                        time,
+                    })
+                }
                 Failure::LeftGrid => {
                     return Err(Error::LeftGrid {
                         particle: particles.id[particle],
@@ -273,6 +280,7 @@ enum Failure {
     Velocity,
     Stress,
     Position,
+    Volume,
     LeftGrid,
 }
 
@@ -323,6 +331,8 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
                     Some(Failure::Stress)
                 } else if !x[k].is_finite() {
                     Some(Failure::Position)
+                } else if volume[k].is_nan() || volume[k] <= 0.0 {
+                    Some(Failure::Volume)
                 } else {
                     None
                 };
