@@ -54,6 +54,30 @@ fn every_basis_gives_the_same_bits_on_one_and_three_threads() {
 }
 
 #[test]
+fn tls_gives_the_same_bits_on_one_and_three_threads() {
+    for basis in ["linear", "ddmpm", "bspline"] {
+        for mass in ["lumped", "consistent"] {
+            let keys = [
+                format!("method.basis=\"{basis}\""),
+                "method.reconstruction=\"tls\"".to_string(),
+                format!("method.mass=\"{mass}\""),
+            ];
+            let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
+            let (serial, serial_history) = simulate_with(1, 60, &keys);
+            let (parallel, parallel_history) = simulate_with(3, 60, &keys);
+            assert_eq!(bits(&serial.x), bits(&parallel.x), "{basis} {mass}");
+            assert_eq!(bits(&serial.v), bits(&parallel.v), "{basis} {mass}");
+            assert_eq!(
+                bits(&serial.stress),
+                bits(&parallel.stress),
+                "{basis} {mass}"
+            );
+            assert_eq!(serial_history, parallel_history, "{basis} {mass}");
+        }
+    }
+}
+
+#[test]
 fn one_two_and_three_threads_give_the_same_bits() {
     let (serial, serial_history) = simulate(1, 300);
     assert!(

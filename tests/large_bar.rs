@@ -43,3 +43,65 @@ fn the_reference_is_converged_for_the_mpm_comparison() {
         "120 DOFs {coarse:e}, 480 DOFs {fine:e}"
     );
 }
+
+/// Relative L2 stress error and the conservation errors (no conservation assertion).
+fn tls_run(overrides: &[&str]) -> (f64, tlsmpm::output::summary::Conservation, String) {
+    let mut all = vec![
+        "problem.reference=\"ulfem\"",
+        "method.reconstruction=\"tls\"",
+    ];
+    all.extend_from_slice(overrides);
+    let summary = run(scenario("vibrating_bar_large", &all), None);
+    let rel = summary.errors.expect("reference errors").rel_l2["stress"];
+    (rel, summary.conservation, summary.status)
+}
+
+#[test]
+fn tls_reduces_the_mpm_error_by_at_least_the_published_factors() {
+    // Published reduction of the plain-MPM stress error: BSMPM-TLS 9.9, DDMPM-TLS 7.8.
+    let (mpm, _) = stress_error(&[]);
+    for (basis, published, mass) in [
+        ("bspline", 9.9, "consistent"),
+        ("ddmpm", 7.8, "lumped"),
+        ("ddmpm", 7.8, "consistent"),
+    ] {
+        for totals in ["centres", "domains"] {
+            let (rel, conservation, status) = tls_run(&[
+                &format!("method.basis=\"{basis}\""),
+                &format!("method.mass=\"{mass}\""),
+                &format!("method.cell_totals=\"{totals}\""),
+            ]);
+            assert_eq!(status, "completed");
+            assert!(conservation.max_rel_mass_error <= 1e-13, "{conservation:?}");
+            assert!(
+                conservation.max_rel_momentum_error <= 1e-13,
+                "{conservation:?}"
+            );
+            let factor = mpm / rel;
+            assert!(
+                factor >= published,
+                "{basis} {mass} {totals}: factor {factor}"
+            );
+        }
+    }
+}
+
+#[test]
+fn one_and_two_particles_per_cell_run_without_nan_and_conserve() {
+    for ppc in ["1", "2"] {
+        for basis in ["linear", "bspline"] {
+            let (rel, conservation, status) = tls_run(&[
+                &format!("particles.per_cell={ppc}"),
+                &format!("method.basis=\"{basis}\""),
+                "method.mass=\"consistent\"",
+            ]);
+            assert_eq!(status, "completed", "{ppc} ppc {basis}");
+            assert!(rel.is_finite());
+            assert!(conservation.max_rel_mass_error <= 1e-13, "{conservation:?}");
+            assert!(
+                conservation.max_rel_momentum_error <= 1e-13,
+                "{conservation:?}"
+            );
+        }
+    }
+}
