@@ -121,9 +121,18 @@ impl ParticleQuadrature<'_> {
     pub fn material_extent(&self) -> (f64, f64) {
         use rayon::prelude::*;
         let (x, volume) = (self.x, self.volume);
-        (0..x.len())
-            .into_par_iter()
-            .map(|p| (x[p] - 0.5 * volume[p], x[p] + 0.5 * volume[p]))
+        // Plain comparisons (not f64::min/max) let the loop vectorise.
+        x.par_chunks(4096)
+            .zip(volume.par_chunks(4096))
+            .map(|(x, volume)| {
+                let (mut bottom, mut top) = (f64::INFINITY, f64::NEG_INFINITY);
+                for (&x, &v) in x.iter().zip(volume) {
+                    let (lo, hi) = (x - 0.5 * v, x + 0.5 * v);
+                    bottom = if lo < bottom { lo } else { bottom };
+                    top = if hi > top { hi } else { top };
+                }
+                (bottom, top)
+            })
             .reduce(
                 || (f64::INFINITY, f64::NEG_INFINITY),
                 |a, b| (a.0.min(b.0), a.1.max(b.1)),

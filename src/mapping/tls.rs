@@ -48,7 +48,21 @@ struct CellSums {
     normal: NormalMatrix,
     stress_rhs: [f64; 3],
     density_rhs: [f64; 3],
+    /// The cell's conserved mass total `c_e`.
     mass: f64,
+    /// Mass of the cell's particles given to the left cell, kept, given to the right cell
+    /// (`method.cell_totals = "domains"`).
+    mass_shares: [f64; 3],
+}
+
+/// Per-cell sums of the momentum pass.
+#[derive(Clone, Copy, Debug, Default)]
+struct MomentumSums {
+    rhs: [f64; 3],
+    /// The cell's conserved momentum total `c_e`.
+    total: f64,
+    /// Like [`CellSums::mass_shares`].
+    shares: [f64; 3],
 }
 
 /// Outcome of the first fit of a cell.
@@ -70,7 +84,7 @@ pub struct TlsMapping {
     taylor: Vec<TaylorCell>,
     sums: Vec<CellSums>,
     /// Per cell the momentum right-hand side and `sum_p m_p v_p`.
-    momentum_sums: Vec<([f64; 3], f64)>,
+    momentum_sums: Vec<MomentumSums>,
     first_fit: Vec<FirstFit>,
     /// Stress coefficients `[N_e][3]`.
     pub stress: Vec<[f64; 3]>,
@@ -105,7 +119,7 @@ impl TlsMapping {
             domains: CellDomains::default(),
             taylor: vec![TaylorCell::default(); cells],
             sums: vec![CellSums::default(); cells],
-            momentum_sums: vec![([0.0; 3], 0.0); cells],
+            momentum_sums: vec![MomentumSums::default(); cells],
             first_fit: vec![FirstFit::Inactive; cells],
             stress: vec![[0.0; 3]; cells],
             density: vec![[0.0; 3]; cells],
@@ -154,11 +168,19 @@ impl TlsMapping {
                     add_rhs(&mut sums.stress_rhs, &psi, stress[p]);
                     add_rhs(&mut sums.density_rhs, &psi, mass[p] / volume[p]);
                     sums.mass += mass[p];
-                }
-                if by_domains {
-                    sums.mass = domain_share(grid, bins, x, volume, cell, |p| mass[p]);
+                    if by_domains {
+                        add_shares(&mut sums.mass_shares, grid, cell, x[p], volume[p], mass[p]);
+                    }
                 }
             });
+        if by_domains {
+            let sums = &mut self.sums;
+            for cell in 0..sums.len() {
+                let [left, right] =
+                    neighbour_shares(cell, sums.len(), |e, k| sums[e].mass_shares[k]);
+                sums[cell].mass = left + sums[cell].mass_shares[1] + right;
+            }
+        }
     }
 
     /// Scale the density fits towards their mean where they dip below zero at a Gauss
@@ -189,33 +211,45 @@ impl TlsMapping {
     }
 }
 
-/// `sum_p q(p) |[x_p - l_p, x_p + l_p] ∩ cell| / |[x_p - l_p, x_p + l_p]|` over the
-/// particles of `cell` and its two neighbours, with `l_p = min(V_p / 2, h)` and the domain
-/// clipped to the grid (`method.cell_totals = "domains"`). Each particle's fractions over
-/// the cells its domain overlaps (all within one cell of its own) sum to 1, so the totals
-/// stay exactly conservative.
-fn domain_share<Q: Fn(usize) -> f64>(
-    grid: &Grid,
-    bins: &CellBins,
-    x: &[f64],
-    volume: &[f64],
-    cell: usize,
-    quantity: Q,
-) -> f64 {
-    let first = cell.saturating_sub(1);
-    let last = (cell + 1).min(grid.cells - 1);
+/// Split `q` of a particle of `cell` between the cells its domain
+/// `[x - l, x + l]` overlaps (`l = min(V/2, h)`, clipped to the grid; at most one cell on
+/// either side): `shares += [to the left cell, kept, to the right cell]` in proportion to
+/// the overlaps (`method.cell_totals = "domains"`). The three parts add up to `q`, so the
+/// cell totals stay conservative.
+#[inline]
+fn add_shares(shares: &mut [f64; 3], grid: &Grid, cell: usize, x: f64, volume: f64, q: f64) {
     let (left, right) = (grid.cell_left(cell), grid.cell_left(cell + 1));
-    let (start, end) = (grid.origin, grid.origin + grid.length);
-    let mut total = 0.0;
-    for p in bins.cell_start[first]..bins.cell_start[last + 1] {
-        let half = (0.5 * volume[p]).min(grid.h);
-        let (a, b) = ((x[p] - half).max(start), (x[p] + half).min(end));
-        let overlap = b.min(right) - a.max(left);
-        if overlap > 0.0 {
-            total += quantity(p) * overlap / (b - a);
-        }
+    let half = 0.5 * volume;
+    if x - half >= left && x + half <= right {
+        // The common case: the domain lies inside the cell.
+        shares[1] += q;
+        return;
     }
-    total
+    let half = half.min(grid.h);
+    let (a, b) = (
+        (x - half).max(grid.origin),
+        (x + half).min(grid.origin + grid.length),
+    );
+    let per_length = q / (b - a);
+    let to_left = (left - a).max(0.0) * per_length;
+    let to_right = (b - right).max(0.0) * per_length;
+    shares[0] += to_left;
+    shares[1] += q - to_left - to_right;
+    shares[2] += to_right;
+}
+
+/// What the neighbours of `cell` give it: `[left cell's right share, right cell's left
+/// share]`, with `share(e, k)` reading cell `e`'s shares.
+#[inline]
+fn neighbour_shares(cell: usize, cells: usize, share: impl Fn(usize, usize) -> f64) -> [f64; 2] {
+    [
+        if cell > 0 { share(cell - 1, 2) } else { 0.0 },
+        if cell + 1 < cells {
+            share(cell + 1, 0)
+        } else {
+            0.0
+        },
+    ]
 }
 
 /// Fit one field in every active cell, in two batched passes: plain fits, then the
@@ -382,21 +416,28 @@ impl Mapping for TlsMapping {
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, (rhs, total))| {
-                *rhs = [0.0; 3];
-                *total = 0.0;
+            .for_each(|(cell, sums)| {
+                *sums = MomentumSums::default();
                 if !domains.is_active(cell) {
                     return;
                 }
                 for p in bins.range(cell) {
                     let psi = taylor[cell].psi(x[p]);
-                    add_rhs(rhs, &psi, mass[p] / volume[p] * v[p]);
-                    *total += mass[p] * v[p];
-                }
-                if by_domains {
-                    *total = domain_share(mesh, bins, x, volume, cell, |p| mass[p] * v[p]);
+                    let momentum = mass[p] * v[p];
+                    add_rhs(&mut sums.rhs, &psi, momentum / volume[p]);
+                    sums.total += momentum;
+                    if by_domains {
+                        add_shares(&mut sums.shares, mesh, cell, x[p], volume[p], momentum);
+                    }
                 }
             });
+        if by_domains {
+            let sums = &mut self.momentum_sums;
+            for cell in 0..sums.len() {
+                let [left, right] = neighbour_shares(cell, sums.len(), |e, k| sums[e].shares[k]);
+                sums[cell].total = left + sums[cell].shares[1] + right;
+            }
+        }
         let momentum_sums = &self.momentum_sums;
         let counts = fit_field(
             &self.grid,
@@ -404,8 +445,8 @@ impl Mapping for TlsMapping {
             domains,
             taylor,
             &self.sums,
-            |cell| momentum_sums[cell].0,
-            |cell| FitKind::Conservative(momentum_sums[cell].1 / domains.length(cell)),
+            |cell| momentum_sums[cell].rhs,
+            |cell| FitKind::Conservative(momentum_sums[cell].total / domains.length(cell)),
             &mut self.first_fit,
             &mut self.momentum,
         );

@@ -16,19 +16,20 @@
 //!
 //! **Well-posedness.** A block is accepted when the points excite every fitted function:
 //! with `n` points and the moments of evenly spread points `S = diag(1, 1/3, 1/45)`
-//! (`S_i = (1/2) int_{-1}^{1} psi_i^2 ds`), the smallest eigenvalue of the scaled block
-//! `D_ij / (n sqrt(S_i S_j))` must be at least [`MIN_SPREAD`] (it is 1 for evenly spread
-//! points and bounded by 9 above, so this also bounds the condition number by
-//! `9 / MIN_SPREAD`). Two points for three unknowns, or one point near the centre for a
-//! slope, fail the test ([`solve`] returns `None`) instead of producing a wild
-//! extrapolation; [`solve_reduced`] then drops `psi_3`, then `psi_2`, and never fails.
+//! (`S_i = (1/2) int_{-1}^{1} psi_i^2 ds`), the block is scaled to
+//! `D_ij / (n sqrt(S_i S_j))` (the identity for evenly spread points) and factored by
+//! Cholesky; every pivot, the part of a function's scaled mean square that the previous
+//! functions do not explain, must be at least [`MIN_SPREAD`]. Two points for three
+//! unknowns, or one point near the centre for a slope, fail the test ([`solve`] returns
+//! `None`) instead of producing a wild extrapolation; [`solve_reduced`] then drops `psi_3`,
+//! then `psi_2`, and never fails. The test costs no more than the solve itself.
 
 /// Smallest accepted eigenvalue of the scaled normal-equation block.
 pub const MIN_SPREAD: f64 = 1e-3;
 
-/// `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds`: the mean square of each Taylor function over
-/// evenly spread points.
-const EVEN_MOMENTS: [f64; 3] = [1.0, 1.0 / 3.0, 1.0 / 45.0];
+/// `1 / sqrt(S_i)` with `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds = [1, 1/3, 1/45]`, the mean
+/// square of each Taylor function over evenly spread points.
+const INV_SQRT_MOMENTS: [f64; 3] = [1.0, 1.732_050_807_568_877_2, 6.708_203_932_499_369];
 
 /// The Taylor basis of one interval.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -128,35 +129,32 @@ pub fn solve(
     if n == 0 {
         return Some(a);
     }
-    // The block D[first..terms, first..terms] and its right-hand side.
+    // The scaled block W D[first..terms, first..terms] W with W = diag(1 / sqrt(n S_i))
+    // and its right-hand side W (r - a_1 D[.., 1]).
+    let scale_count = 1.0 / (normal.count.max(1) as f64).sqrt();
+    let mut w = [0.0; 3];
+    for (i, wi) in w.iter_mut().enumerate().take(n) {
+        *wi = INV_SQRT_MOMENTS[first + i] * scale_count;
+    }
     let mut m = [[0.0; 3]; 3];
     let mut b = [0.0; 3];
     for i in 0..n {
         for (j, entry) in m[i].iter_mut().enumerate().take(n) {
             let (r, c) = (first + i.min(j), first + i.max(j));
-            *entry = normal.d[r][c];
+            *entry = normal.d[r][c] * w[i] * w[j];
         }
-        b[i] = rhs[first + i]
-            - if first == 1 {
-                a[0] * normal.d[0][1 + i]
-            } else {
-                0.0
-            };
+        let fixed = if first == 1 {
+            a[0] * normal.d[0][1 + i]
+        } else {
+            0.0
+        };
+        b[i] = (rhs[first + i] - fixed) * w[i];
     }
-    let mut scaled = [[0.0; 3]; 3];
-    let count = normal.count.max(1) as f64;
+    let y = solve_spd(&m, &b, n)?;
     for i in 0..n {
-        for j in 0..n {
-            let moments = (EVEN_MOMENTS[first + i] * EVEN_MOMENTS[first + j]).sqrt();
-            scaled[i][j] = m[i][j] / (count * moments);
-        }
+        a[first + i] = y[i] * w[i];
     }
-    let (lo, hi) = eigen_range(&scaled, n);
-    if !(lo >= MIN_SPREAD && hi.is_finite()) {
-        return None;
-    }
-    let x = solve_spd(&m, &b, n)?;
-    a[first..first + n].copy_from_slice(&x[..n]);
+
     Some(a)
 }
 
@@ -176,15 +174,15 @@ pub fn solve_reduced(normal: &NormalMatrix, rhs: &[f64; 3], kind: FitKind) -> ([
     ([a1, 0.0, 0.0], 1)
 }
 
-/// Solve the `n x n` (n <= 3) SPD system `m x = b` by Cholesky; `None` if a pivot is not
-/// positive.
+/// Solve the scaled `n x n` (n <= 3) SPD system `m x = b` by Cholesky; `None` if a pivot
+/// (squared diagonal of the factor) is below [`MIN_SPREAD`] or not finite.
 fn solve_spd(m: &[[f64; 3]; 3], b: &[f64; 3], n: usize) -> Option<[f64; 3]> {
     let mut l = [[0.0; 3]; 3];
     for i in 0..n {
         for j in 0..=i {
             let s = m[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
-                if s <= 0.0 {
+                if s.is_nan() || s < MIN_SPREAD {
                     return None;
                 }
                 l[i][i] = s.sqrt();
@@ -210,48 +208,6 @@ fn solve_spd(m: &[[f64; 3]; 3], b: &[f64; 3], n: usize) -> Option<[f64; 3]> {
         x[i] = s / l[i][i];
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
-/// Smallest and largest eigenvalue of the symmetric `n x n` (n <= 3) matrix `m`, in closed
-/// form (trigonometric solution of the characteristic cubic for n = 3).
-fn eigen_range(m: &[[f64; 3]; 3], n: usize) -> (f64, f64) {
-    match n {
-        1 => (m[0][0], m[0][0]),
-        2 => {
-            let mean = 0.5 * (m[0][0] + m[1][1]);
-            let half_diff = 0.5 * (m[0][0] - m[1][1]);
-            let radius = half_diff.hypot(m[0][1]);
-            (mean - radius, mean + radius)
-        }
-        _ => {
-            let off = m[0][1] * m[0][1] + m[0][2] * m[0][2] + m[1][2] * m[1][2];
-            let q = (m[0][0] + m[1][1] + m[2][2]) / 3.0;
-            if off == 0.0 {
-                let d = [m[0][0], m[1][1], m[2][2]];
-                return (
-                    d.iter().copied().fold(f64::INFINITY, f64::min),
-                    d.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                );
-            }
-            let p2 =
-                (m[0][0] - q).powi(2) + (m[1][1] - q).powi(2) + (m[2][2] - q).powi(2) + 2.0 * off;
-            let p = (p2 / 6.0).sqrt();
-            let mut b = *m;
-            for (i, row) in b.iter_mut().enumerate() {
-                row[i] -= q;
-                for v in row.iter_mut() {
-                    *v /= p;
-                }
-            }
-            let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[1][2])
-                - b[0][1] * (b[0][1] * b[2][2] - b[1][2] * b[0][2])
-                + b[0][2] * (b[0][1] * b[1][2] - b[1][1] * b[0][2]);
-            let phi = (0.5 * det).clamp(-1.0, 1.0).acos() / 3.0;
-            let largest = q + 2.0 * p * phi.cos();
-            let smallest = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
-            (smallest, largest)
-        }
-    }
 }
 
 #[cfg(test)]
@@ -288,19 +244,6 @@ mod tests {
     }
 
     #[test]
-    fn eigenvalues_of_a_known_matrix() {
-        // diag(1, 2, 4) rotated: eigenvalues stay 1 and 4 at the ends.
-        let m = [[2.5, 0.5, 0.0], [0.5, 2.5, 0.0], [0.0, 0.0, 4.0]];
-        let (lo, hi) = eigen_range(&m, 3);
-        assert!(
-            (lo - 2.0).abs() < 1e-12 && (hi - 4.0).abs() < 1e-12,
-            "{lo} {hi}"
-        );
-        let (lo, hi) = eigen_range(&m, 2);
-        assert!((lo - 2.0).abs() < 1e-12 && (hi - 3.0).abs() < 1e-12);
-    }
-
-    #[test]
     fn two_points_are_degenerate_for_three_terms_and_reduce_to_a_line() {
         let cell = TaylorCell::new(0.0, 1.0);
         let (normal, rhs) = normal_of(&cell, &[(0.2, 1.0), (0.7, 2.0)]);
@@ -328,8 +271,14 @@ mod tests {
         assert!((cell.eval(&a, 0.95) - 7.0).abs() < 1e-12);
     }
 
+    /// `S_i`, see [`INV_SQRT_MOMENTS`].
+    const EVEN_MOMENTS: [f64; 3] = [1.0, 1.0 / 3.0, 1.0 / 45.0];
+
     #[test]
     fn evenly_spread_points_have_unit_scaled_moments() {
+        for (s, inv) in EVEN_MOMENTS.iter().zip(INV_SQRT_MOMENTS) {
+            assert!((inv * inv * s - 1.0).abs() < 1e-15);
+        }
         // The midpoint rule with many points approximates the even moments.
         let cell = TaylorCell::new(-1.0, 1.0);
         let n = 2000;

@@ -1,0 +1,113 @@
+//! Throughput of the particle → grid mapping: TLS reconstruction + Gauss quadrature against
+//! the plain MPM particle quadrature (SPEC §4.1).
+//!
+//! ```text
+//! cargo bench --bench reconstruction                          # everything (long)
+//! cargo bench --bench reconstruction -- 'mapping/serial/.*/16ppc'
+//! ```
+//!
+//! `mapping/{serial,parallel}/{direct,tls,tls_consistent}/{P}ppc/{N}`: one step's mapping
+//! (`map_mass_and_internal_force` + `map_momentum`) of `N` particles, `P` per cell, on the
+//! linear basis (3 Gauss points per cell). `tls` fits stress, density and momentum in every
+//! cell and integrates lumped masses; `tls_consistent` also assembles the consistent mass
+//! matrix. Throughput is in particles per second; the ratio `direct / tls` of two
+//! throughputs is the cost of the reconstruction per particle.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use std::hint::black_box;
+use std::time::Duration;
+use tlsmpm::config::{CellTotals, DegenerateRemedy};
+use tlsmpm::grid::{Basis, Grid, LinearBasis};
+use tlsmpm::linalg::CsrMatrix;
+use tlsmpm::mapping::{DirectMapping, GridFields, Mapping, TlsMapping};
+use tlsmpm::particles::{CellBins, Particles};
+
+const PER_CELL: [usize; 3] = [4, 16, 64];
+const SIZES: [usize; 4] = [1_000, 10_000, 100_000, 1_000_000];
+
+/// A binned bar of about `particles` particles, `per_cell` per cell, with smooth
+/// velocity and stress.
+fn setup(particles: usize, per_cell: usize) -> (Grid, Particles, CellBins) {
+    let cells = (particles / per_cell).max(1);
+    let grid = Grid::new(1.0, cells);
+    let mut p = Particles::at_subcell_centres(&grid, per_cell, 2000.0);
+    for k in 0..p.len() {
+        p.v[k] = (3.0 * p.x[k]).sin();
+        p.stress[k] = (2.0 * p.x[k]).cos();
+    }
+    let mut bins = CellBins::default();
+    bins.sort(&mut p, grid.cells);
+    (grid, p, bins)
+}
+
+fn map<M: Mapping>(
+    mapping: &mut M,
+    basis: &LinearBasis,
+    particles: &Particles,
+    bins: &CellBins,
+    fields: &mut GridFields,
+) {
+    mapping.map_mass_and_internal_force(basis, particles, bins, fields);
+    mapping.map_momentum(basis, particles, bins, fields);
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap_or_else(|e| panic!("rayon pool with {threads} threads: {e}"))
+}
+
+fn mapping(c: &mut Criterion) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    for (label, threads) in [("serial", 1), ("parallel", cores)] {
+        let pool = pool(threads);
+        let mut group = c.benchmark_group(format!("mapping/{label}"));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(300))
+            .measurement_time(Duration::from_secs(1));
+        for per_cell in PER_CELL {
+            for size in SIZES {
+                let (grid, particles, bins) = setup(size, per_cell);
+                let basis = LinearBasis::new(grid);
+                group.throughput(Throughput::Elements(particles.len() as u64));
+                let id = |name: &str| BenchmarkId::new(format!("{name}/{per_cell}ppc"), size);
+                let mut fields = GridFields::new(basis.num_dofs());
+                let mut direct = DirectMapping::default();
+                group.bench_function(id("direct"), |b| {
+                    b.iter(|| {
+                        pool.install(|| map(&mut direct, &basis, &particles, &bins, &mut fields));
+                        black_box(fields.momentum[0])
+                    })
+                });
+                let mut tls = TlsMapping::new(
+                    grid,
+                    3,
+                    DegenerateRemedy::VirtualPoints,
+                    CellTotals::Domains,
+                )
+                .unwrap_or_else(|| panic!("3-point rule"));
+                group.bench_function(id("tls"), |b| {
+                    b.iter(|| {
+                        pool.install(|| map(&mut tls, &basis, &particles, &bins, &mut fields));
+                        black_box(fields.momentum[0])
+                    })
+                });
+                let mut consistent = GridFields::new(basis.num_dofs());
+                consistent.consistent_mass =
+                    Some(CsrMatrix::band(basis.num_dofs(), basis.max_window() - 1));
+                group.bench_function(id("tls_consistent"), |b| {
+                    b.iter(|| {
+                        pool.install(|| map(&mut tls, &basis, &particles, &bins, &mut consistent));
+                        black_box(consistent.momentum[0])
+                    })
+                });
+            }
+        }
+        group.finish();
+    }
+}
+
+criterion_group!(benches, mapping);
+criterion_main!(benches);
