@@ -211,8 +211,10 @@ pub struct MethodConfig {
     /// the velocity mapping (step 4). Default: see [`MethodConfig::acceleration_mass`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acceleration_mass: Option<MassKind>,
-    /// Gauss points per cell of reconstructions (0 = enough to integrate the consistent
-    /// mass matrix of the quadratic reconstruction exactly: `p + 2` for basis degree `p`).
+    /// Gauss points per cell of reconstructions (0 = automatic: for TLS enough to integrate
+    /// the consistent mass matrix of the quadratic reconstruction exactly, `p + 2` for basis
+    /// degree `p`; for the cubic spline 2 points on each half cell, SPEC §4.2). For the
+    /// cubic spline a non-zero value is the number of points per half cell.
     #[serde(default)]
     pub gauss_points: usize,
     /// Remedy for cells whose least-squares fit is degenerate.
@@ -685,10 +687,9 @@ impl Scenario {
             _ => {}
         }
         match self.method.reconstruction {
-            ReconstructionKind::None | ReconstructionKind::Tls => {}
-            ReconstructionKind::CubicSpline => {
-                return not_yet("method.reconstruction", "cubic_spline")
-            }
+            ReconstructionKind::None
+            | ReconstructionKind::Tls
+            | ReconstructionKind::CubicSpline => {}
             ReconstructionKind::Mls => return not_yet("method.reconstruction", "mls"),
             ReconstructionKind::Imls => return not_yet("method.reconstruction", "imls"),
         }

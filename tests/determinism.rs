@@ -54,25 +54,25 @@ fn every_basis_gives_the_same_bits_on_one_and_three_threads() {
 }
 
 #[test]
-fn tls_gives_the_same_bits_on_one_and_three_threads() {
-    for basis in ["linear", "ddmpm", "bspline"] {
-        for mass in ["lumped", "consistent"] {
-            let keys = [
-                format!("method.basis=\"{basis}\""),
-                "method.reconstruction=\"tls\"".to_string(),
-                format!("method.mass=\"{mass}\""),
-            ];
-            let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
-            let (serial, serial_history) = simulate_with(1, 60, &keys);
-            let (parallel, parallel_history) = simulate_with(3, 60, &keys);
-            assert_eq!(bits(&serial.x), bits(&parallel.x), "{basis} {mass}");
-            assert_eq!(bits(&serial.v), bits(&parallel.v), "{basis} {mass}");
-            assert_eq!(
-                bits(&serial.stress),
-                bits(&parallel.stress),
-                "{basis} {mass}"
-            );
-            assert_eq!(serial_history, parallel_history, "{basis} {mass}");
+fn reconstructions_give_the_same_bits_on_one_and_three_threads() {
+    for reconstruction in ["tls", "cubic_spline"] {
+        for basis in ["linear", "ddmpm", "bspline"] {
+            for mass in ["lumped", "consistent"] {
+                let keys = [
+                    format!("method.basis=\"{basis}\""),
+                    format!("method.reconstruction=\"{reconstruction}\""),
+                    format!("method.mass=\"{mass}\""),
+                ];
+                let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
+                let label = format!("{reconstruction} {basis} {mass}");
+                let (serial, serial_history) = simulate_with(1, 60, &keys);
+                let (parallel, parallel_history) = simulate_with(3, 60, &keys);
+                assert_eq!(serial.id, parallel.id, "{label}");
+                assert_eq!(bits(&serial.x), bits(&parallel.x), "{label}");
+                assert_eq!(bits(&serial.v), bits(&parallel.v), "{label}");
+                assert_eq!(bits(&serial.stress), bits(&parallel.stress), "{label}");
+                assert_eq!(serial_history, parallel_history, "{label}");
+            }
         }
     }
 }

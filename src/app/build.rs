@@ -7,7 +7,7 @@ use crate::config::{BasisKind, ReconstructionKind, Scenario, SolverKind};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::{BandedCholesky, ConjugateGradient, LinearSolver};
-use crate::mapping::{DirectMapping, Mapping, TlsMapping};
+use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, TlsMapping};
 use crate::particles::Particles;
 use crate::physics::stability::critical_time_step;
 use crate::physics::step::TimeStepper;
@@ -55,6 +55,17 @@ pub fn build_simulation(
                     .ok_or_else(|| {
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                     })?;
+            with_basis(scenario, parts, mapping, &mut particles)?
+        }
+        ReconstructionKind::CubicSpline => {
+            // SPEC §4.2: a 2-point rule on each half cell unless `method.gauss_points` says.
+            let points = match method.gauss_points {
+                0 => 2,
+                n => n,
+            };
+            let mapping = CubicSplineMapping::new(grid, points).ok_or_else(|| {
+                Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
+            })?;
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         reconstruction => {

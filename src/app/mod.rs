@@ -1,12 +1,15 @@
 //! The application layer: building a simulation from a scenario (the one place where the
 //! configuration is dispatched to concrete basis / mapping types), running it with its
-//! outputs, convergence studies, and the built-in scenarios.
+//! outputs, convergence studies, the built-in scenarios, and the function-reconstruction
+//! benchmark (`tlsmpm reconstruct`).
 
 pub mod build;
 pub mod builtin;
+pub mod reconstruct;
 pub mod run;
 pub mod study;
 
 pub use build::build_simulation;
+pub use reconstruct::{reconstruct, ReconstructionReport};
 pub use run::{run, RunOptions};
 pub use study::{study, StudyRow};

@@ -37,6 +37,12 @@ enum Command {
         #[arg(long, value_delimiter = ',', required = true)]
         cells: Vec<usize>,
     },
+    /// Function-reconstruction benchmark (SPEC 6.1): TLS vs cubic spline on sin x + 2.
+    Reconstruct {
+        /// Output directory for reconstruction.csv and reconstruction.svg.
+        #[arg(long, default_value = "out/reconstruction")]
+        out: PathBuf,
+    },
     /// List the built-in scenarios.
     List,
 }
@@ -158,6 +164,12 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             for b in builtin::BUILTIN {
                 println!("{:<22} {}", b.name, b.description);
             }
+            Ok(())
+        }
+        Command::Reconstruct { out } => {
+            let report = app::reconstruct(Some(&out))?;
+            print!("{}", app::reconstruct::format_table(&report));
+            println!("wrote {}", out.display());
             Ok(())
         }
         Command::Run { common } => {

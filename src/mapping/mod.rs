@@ -1,16 +1,19 @@
 //! Particle → grid transfers (SPEC §2 step 1 and 4, §4).
 //!
 //! [`Mapping`] is the plug point: the direct particle quadrature of standard MPM
-//! ([`DirectMapping`]) and the conservative Taylor-least-squares reconstruction with Gauss
-//! quadrature ([`TlsMapping`]). Every mapping scatters through [`scatter::CellScatter`]:
+//! ([`DirectMapping`]), the conservative Taylor-least-squares reconstruction with Gauss
+//! quadrature ([`TlsMapping`]) and the non-conservative global cubic-spline comparator
+//! ([`CubicSplineMapping`]). Every mapping scatters through [`scatter::CellScatter`]:
 //! per-cell local buffers filled in parallel, then reduced in a fixed cell order, so grid
 //! vectors and the consistent mass matrix are bitwise identical for any thread count.
 
+pub mod cubic_spline;
 pub mod direct;
 pub mod quadrature;
 pub mod scatter;
 pub mod tls;
 
+pub use cubic_spline::CubicSplineMapping;
 pub use direct::DirectMapping;
 pub use scatter::CellScatter;
 pub use tls::TlsMapping;

@@ -3,6 +3,7 @@
 //! norms of SPEC §6.
 
 pub mod bspline;
+pub mod cubic_spline;
 pub mod gauss;
 pub mod norms;
 pub mod sum;
