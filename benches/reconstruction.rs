@@ -12,12 +12,15 @@
 //! cell and integrates lumped masses; `tls_consistent` also assembles the consistent mass
 //! matrix. Throughput is in particles per second; the ratio `direct / tls` of two
 //! throughputs is the cost of the reconstruction per particle.
+//! `mapping_bspline2/...` is the same with quadratic B-splines (4 Gauss points per cell):
+//! there the direct mapping pays a B-spline evaluation per particle, TLS one per Gauss
+//! point.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 use std::time::Duration;
 use tlsmpm::config::{CellTotals, DegenerateRemedy};
-use tlsmpm::grid::{Basis, Grid, LinearBasis};
+use tlsmpm::grid::{BSplineBasis, Basis, Grid, LinearBasis};
 use tlsmpm::linalg::CsrMatrix;
 use tlsmpm::mapping::{DirectMapping, GridFields, Mapping, TlsMapping};
 use tlsmpm::particles::{CellBins, Particles};
@@ -40,9 +43,9 @@ fn setup(particles: usize, per_cell: usize) -> (Grid, Particles, CellBins) {
     (grid, p, bins)
 }
 
-fn map<M: Mapping>(
+fn map<M: Mapping, B: Basis>(
     mapping: &mut M,
-    basis: &LinearBasis,
+    basis: &B,
     particles: &Particles,
     bins: &CellBins,
     fields: &mut GridFields,
@@ -58,11 +61,18 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .unwrap_or_else(|e| panic!("rayon pool with {threads} threads: {e}"))
 }
 
-fn mapping(c: &mut Criterion) {
+/// The group `name/{serial,parallel}` for the basis `make_basis(grid)` with a
+/// `gauss_points`-point rule.
+fn group<B: Basis, F: Fn(Grid) -> B>(
+    c: &mut Criterion,
+    name: &str,
+    make_basis: F,
+    gauss_points: usize,
+) {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     for (label, threads) in [("serial", 1), ("parallel", cores)] {
         let pool = pool(threads);
-        let mut group = c.benchmark_group(format!("mapping/{label}"));
+        let mut group = c.benchmark_group(format!("{name}/{label}"));
         group
             .sample_size(10)
             .warm_up_time(Duration::from_millis(300))
@@ -70,7 +80,7 @@ fn mapping(c: &mut Criterion) {
         for per_cell in PER_CELL {
             for size in SIZES {
                 let (grid, particles, bins) = setup(size, per_cell);
-                let basis = LinearBasis::new(grid);
+                let basis = make_basis(grid);
                 group.throughput(Throughput::Elements(particles.len() as u64));
                 let id = |name: &str| BenchmarkId::new(format!("{name}/{per_cell}ppc"), size);
                 let mut fields = GridFields::new(basis.num_dofs());
@@ -83,11 +93,11 @@ fn mapping(c: &mut Criterion) {
                 });
                 let mut tls = TlsMapping::new(
                     grid,
-                    3,
+                    gauss_points,
                     DegenerateRemedy::VirtualPoints,
                     CellTotals::Domains,
                 )
-                .unwrap_or_else(|| panic!("3-point rule"));
+                .unwrap_or_else(|| panic!("{gauss_points}-point rule"));
                 group.bench_function(id("tls"), |b| {
                     b.iter(|| {
                         pool.install(|| map(&mut tls, &basis, &particles, &bins, &mut fields));
@@ -107,6 +117,16 @@ fn mapping(c: &mut Criterion) {
         }
         group.finish();
     }
+}
+
+fn mapping(c: &mut Criterion) {
+    group(c, "mapping", LinearBasis::new, 3);
+    group(
+        c,
+        "mapping_bspline2",
+        |grid| BSplineBasis::new(grid, 2).unwrap_or_else(|| panic!("order 2")),
+        4,
+    );
 }
 
 criterion_group!(benches, mapping);

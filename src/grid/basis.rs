@@ -152,7 +152,9 @@ impl ParticleQuadrature<'_> {
     #[inline]
     pub fn active_part(&self, grid: &Grid, cell: usize, extent: (f64, f64)) -> Option<(f64, f64)> {
         let left = grid.cell_left(cell);
-        let (lo, hi) = (left.max(extent.0), (left + grid.h).min(extent.1));
+        let right = left + grid.h;
+        let lo = if extent.0 > left { extent.0 } else { left };
+        let hi = if extent.1 < right { extent.1 } else { right };
         (!self.range(cell).is_empty() && hi > lo).then_some((lo, hi))
     }
 }

@@ -48,11 +48,11 @@ impl CellDomains {
         self.hi.resize(grid.cells, 0.0);
         for cell in 0..grid.cells {
             let left = grid.cell_left(cell);
-            let clipped = (left.max(extent.0), (left + grid.h).min(extent.1));
             let (lo, hi) = if require_particles {
                 quadrature.active_part(grid, cell, extent)
             } else {
-                (clipped.1 > clipped.0).then_some(clipped)
+                let (lo, hi) = (left.max(extent.0), (left + grid.h).min(extent.1));
+                (hi > lo).then_some((lo, hi))
             }
             .unwrap_or((left, left));
             self.lo[cell] = lo;

@@ -12,10 +12,13 @@
 //! (2+ points) and a partition-of-unity basis the mapped mass `sum_i m_i` and momentum
 //! `sum_i p_i` equal the particle totals to round-off (IJNME §5.5).
 //!
-//! **Batches.** One parallel pass over the cells builds every cell's normal matrix
-//! `D = sum psi psi^T` (shared by all fields) and right-hand sides; one pass solves every
-//! cell's 3x3 (full) or 2x2 (conservative) system; the result is a flat `[N_e][3]`
-//! coefficient array per field.
+//! **Batches.** Per step and parallel over cells: one pass over the binned particles builds
+//! every cell's normal matrix `D = sum psi psi^T` (shared by all fields), right-hand sides
+//! and conserved totals; one pass solves every cell's 3x3 (full, stress) and 2x2
+//! (conservative, density) systems and limits the density; a pass over the degenerate
+//! cells only (skipped when there is none) repairs them from their neighbours; one pass
+//! integrates. The results are flat `[N_e][3]` coefficient arrays per field. The momentum
+//! mapping reuses `D` (same positions) with its own right-hand side.
 //!
 //! **Degenerate cells** (fewer points than unknowns, or a condition number of the block
 //! not well posed, see [`crate::numerics::taylor`]): with `method.degenerate_cells = "virtual_points"` (default) the
@@ -42,35 +45,196 @@ use rayon::prelude::*;
 /// Cells per rayon task in the batched passes.
 const CELLS_PER_TASK: usize = 128;
 
-/// Per-cell sums of one pass over the particles.
+/// Per-cell sums of one pass over the particles of a cell.
 #[derive(Clone, Copy, Debug, Default)]
 struct CellSums {
     normal: NormalMatrix,
     stress_rhs: [f64; 3],
     density_rhs: [f64; 3],
-    /// The cell's conserved mass total `c_e`.
-    mass: f64,
-    /// Mass of the cell's particles given to the left cell, kept, given to the right cell
-    /// (`method.cell_totals = "domains"`).
+    momentum_rhs: [f64; 3],
+    /// Mass of the cell's particles: given to the left cell, kept, given to the right
+    /// cell (all kept with `method.cell_totals = "centres"`).
     mass_shares: [f64; 3],
+    /// Momentum of the cell's particles, split like the mass.
+    momentum_shares: [f64; 3],
 }
 
-/// Per-cell sums of the momentum pass.
-#[derive(Clone, Copy, Debug, Default)]
-struct MomentumSums {
-    rhs: [f64; 3],
-    /// The cell's conserved momentum total `c_e`.
-    total: f64,
-    /// Like [`CellSums::mass_shares`].
-    shares: [f64; 3],
-}
-
-/// Outcome of the first fit of a cell.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum FirstFit {
+/// State of a cell's fit of one field.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum FitState {
+    /// No particles: no reconstruction.
+    #[default]
     Inactive,
-    Fitted([f64; 3]),
-    Degenerate,
+    /// A well-posed fit from the cell's own particles (a source of virtual points).
+    Fitted,
+    /// Repaired from neighbours or by order reduction.
+    Repaired,
+}
+
+/// One reconstructed field: coefficients, fit states, and scratch for the repairs.
+#[derive(Clone, Debug, Default)]
+struct FieldFit {
+    coefficients: Vec<[f64; 3]>,
+    state: Vec<FitState>,
+    repaired: Vec<(usize, [f64; 3], RemedyCounts)>,
+}
+
+impl FieldFit {
+    fn new(cells: usize) -> Self {
+        Self {
+            coefficients: vec![[0.0; 3]; cells],
+            state: vec![FitState::Inactive; cells],
+            repaired: Vec::new(),
+        }
+    }
+}
+
+/// What a fit needs to know about the cells.
+struct FitContext<'a> {
+    grid: &'a Grid,
+    remedy: DegenerateRemedy,
+    taylor: &'a [TaylorCell],
+    sums: &'a [CellSums],
+}
+
+impl FitContext<'_> {
+    /// Repair `cell` of `field` (whose plain fit was refused): virtual points from the
+    /// fitted neighbours at the shared faces, else order reduction.
+    fn repair(
+        &self,
+        field: &FieldFit,
+        cell: usize,
+        mut rhs: [f64; 3],
+        kind: FitKind,
+    ) -> ([f64; 3], RemedyCounts) {
+        let mut counts = RemedyCounts {
+            degenerate_fits: 1,
+            ..RemedyCounts::default()
+        };
+        let mut normal = self.sums[cell].normal;
+        if self.remedy == DegenerateRemedy::VirtualPoints {
+            let grid = self.grid;
+            let left = cell.checked_sub(1).map(|n| (n, grid.cell_left(cell)));
+            let right = (cell + 1 < grid.cells).then(|| (cell + 1, grid.cell_left(cell + 1)));
+            for (neighbour, face) in left.into_iter().chain(right) {
+                if field.state[neighbour] == FitState::Fitted {
+                    let value = self.taylor[neighbour].eval(&field.coefficients[neighbour], face);
+                    let psi = self.taylor[cell].psi(face);
+                    normal.add(&psi);
+                    add_rhs(&mut rhs, &psi, value);
+                }
+            }
+            if let Some(a) = solve(&normal, &rhs, kind, 3) {
+                counts.virtual_point_fits = 1;
+                return (a, counts);
+            }
+        }
+        counts.order_reduced_fits = 1;
+        (solve_reduced(&normal, &rhs, kind).0, counts)
+    }
+
+    /// Repair every cell of `field` marked [`FitState::Repaired`] by the plain pass, from
+    /// the plain fits of its neighbours (parallel, deterministic), then apply `finish` to
+    /// each repaired fit.
+    fn repair_all<R, K, F>(&self, field: &mut FieldFit, rhs: R, kind: K, finish: F) -> RemedyCounts
+    where
+        R: Fn(usize) -> [f64; 3] + Sync,
+        K: Fn(usize) -> FitKind + Sync,
+        F: Fn(usize, &mut [f64; 3]) -> u64 + Sync,
+    {
+        let mut repaired = std::mem::take(&mut field.repaired);
+        repaired.clear();
+        repaired.extend(
+            field
+                .state
+                .iter()
+                .enumerate()
+                .filter(|(_, &s)| s == FitState::Repaired)
+                .map(|(cell, _)| (cell, [0.0; 3], RemedyCounts::default())),
+        );
+        let view = &*field;
+        repaired.par_iter_mut().for_each(|(cell, a, counts)| {
+            let (fit, c) = self.repair(view, *cell, rhs(*cell), kind(*cell));
+            *a = fit;
+            *counts = c;
+            counts.density_limited_fits = finish(*cell, a);
+        });
+        let mut total = RemedyCounts::default();
+        for &(cell, a, counts) in &repaired {
+            field.coefficients[cell] = a;
+            total += counts;
+        }
+        field.repaired = repaired;
+        total
+    }
+}
+
+/// The plain fit of one cell: its state and coefficients (the constant `a_1` for a refused
+/// conservative fit, 0 for a refused full fit, until repaired).
+#[inline]
+fn plain_fit(
+    active: bool,
+    normal: &NormalMatrix,
+    rhs: &[f64; 3],
+    kind: FitKind,
+) -> (FitState, [f64; 3]) {
+    if !active {
+        return (FitState::Inactive, [0.0; 3]);
+    }
+    match solve(normal, rhs, kind, 3) {
+        Some(a) => (FitState::Fitted, a),
+        None => {
+            let a1 = match kind {
+                FitKind::Full => 0.0,
+                FitKind::Conservative(a1) => a1,
+            };
+            (FitState::Repaired, [a1, 0.0, 0.0])
+        }
+    }
+}
+
+/// Scale `a_2, a_3` of a density fit towards its mean where it dips below zero at a Gauss
+/// point of `[lo, hi]`; returns 1 if it did.
+#[inline]
+fn limit_density(
+    taylor: &TaylorCell,
+    points: &GaussPoints,
+    lo: f64,
+    hi: f64,
+    a: &mut [f64; 3],
+) -> u64 {
+    if a[0] <= 0.0 {
+        return 0;
+    }
+    let mut lowest = f64::INFINITY;
+    points.for_each(lo, hi, |x, _| {
+        let value = taylor.eval(a, x);
+        lowest = if value < lowest { value } else { lowest };
+    });
+    if lowest >= 0.0 {
+        return 0;
+    }
+    let theta = a[0] / (a[0] - lowest);
+    a[1] *= theta;
+    a[2] *= theta;
+    1
+}
+
+/// The cell's conserved total from its own and its neighbours' shares.
+#[inline]
+fn cell_total(sums: &[CellSums], cell: usize, shares: impl Fn(&CellSums) -> [f64; 3]) -> f64 {
+    let own = shares(&sums[cell])[1];
+    let from_left = if cell > 0 {
+        shares(&sums[cell - 1])[2]
+    } else {
+        0.0
+    };
+    let from_right = if cell + 1 < sums.len() {
+        shares(&sums[cell + 1])[0]
+    } else {
+        0.0
+    };
+    from_left + own + from_right
 }
 
 /// The TLS mapping with Gauss quadrature.
@@ -83,15 +247,9 @@ pub struct TlsMapping {
     domains: CellDomains,
     taylor: Vec<TaylorCell>,
     sums: Vec<CellSums>,
-    /// Per cell the momentum right-hand side and `sum_p m_p v_p`.
-    momentum_sums: Vec<MomentumSums>,
-    first_fit: Vec<FirstFit>,
-    /// Stress coefficients `[N_e][3]`.
-    pub stress: Vec<[f64; 3]>,
-    /// Density coefficients `[N_e][3]`.
-    pub density: Vec<[f64; 3]>,
-    /// Momentum-density coefficients `[N_e][3]`.
-    pub momentum: Vec<[f64; 3]>,
+    stress: FieldFit,
+    density: FieldFit,
+    momentum: FieldFit,
     remedies: RemedyCounts,
     scatter: CellScatter,
 }
@@ -119,11 +277,9 @@ impl TlsMapping {
             domains: CellDomains::default(),
             taylor: vec![TaylorCell::default(); cells],
             sums: vec![CellSums::default(); cells],
-            momentum_sums: vec![MomentumSums::default(); cells],
-            first_fit: vec![FirstFit::Inactive; cells],
-            stress: vec![[0.0; 3]; cells],
-            density: vec![[0.0; 3]; cells],
-            momentum: vec![[0.0; 3]; cells],
+            stress: FieldFit::new(cells),
+            density: FieldFit::new(cells),
+            momentum: FieldFit::new(cells),
             remedies: RemedyCounts::default(),
             scatter: CellScatter::default(),
         })
@@ -139,18 +295,46 @@ impl TlsMapping {
         &self.taylor[cell]
     }
 
-    /// Bin-wise sums for stress and density, and the cell domains.
-    fn accumulate(&mut self, particles: &Particles, bins: &CellBins) {
+    /// Stress coefficients `[N_e][3]` of the last mapping.
+    pub fn stress(&self) -> &[[f64; 3]] {
+        &self.stress.coefficients
+    }
+
+    /// Density coefficients `[N_e][3]` of the last mapping.
+    pub fn density(&self) -> &[[f64; 3]] {
+        &self.density.coefficients
+    }
+
+    /// Momentum-density coefficients `[N_e][3]` of the last mapping.
+    pub fn momentum(&self) -> &[[f64; 3]] {
+        &self.momentum.coefficients
+    }
+}
+
+impl Mapping for TlsMapping {
+    fn name(&self) -> &'static str {
+        "tls"
+    }
+
+    fn map_mass_and_internal_force<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+    ) {
         let by_domains = self.totals == CellTotals::Domains;
         self.domains
             .update(&self.grid, particles, bins, !by_domains);
-        let (domains, grid) = (&self.domains, &self.grid);
-        let (x, stress, mass, volume) = (
+        let (mesh, domains) = (&self.grid, &self.domains);
+        let (x, stress, mass, volume, density) = (
             &particles.x,
             &particles.stress,
             &particles.mass,
             &particles.volume,
+            &particles.density,
         );
+        // Pass 1: normal matrices, right-hand sides, mass shares.
         self.taylor
             .par_iter_mut()
             .zip(self.sums.par_iter_mut())
@@ -161,53 +345,187 @@ impl TlsMapping {
                 if !domains.is_active(cell) {
                     return;
                 }
-                *taylor = TaylorCell::new(domains.lo[cell], domains.hi[cell]);
+                // Accumulate in locals (registers), store once.
+                let basis = TaylorCell::new(domains.lo[cell], domains.hi[cell]);
+                let mut local = CellSums::default();
                 for p in bins.range(cell) {
-                    let psi = taylor.psi(x[p]);
-                    sums.normal.add(&psi);
-                    add_rhs(&mut sums.stress_rhs, &psi, stress[p]);
-                    add_rhs(&mut sums.density_rhs, &psi, mass[p] / volume[p]);
-                    sums.mass += mass[p];
+                    let psi = basis.psi(x[p]);
+                    local.normal.add(&psi);
+                    add_rhs(&mut local.stress_rhs, &psi, stress[p]);
+                    // rho_p = m_p / V_p, carried by the particles.
+                    add_rhs(&mut local.density_rhs, &psi, density[p]);
                     if by_domains {
-                        add_shares(&mut sums.mass_shares, grid, cell, x[p], volume[p], mass[p]);
+                        add_shares(&mut local.mass_shares, mesh, cell, x[p], volume[p], mass[p]);
+                    } else {
+                        local.mass_shares[1] += mass[p];
                     }
                 }
+                *taylor = basis;
+                *sums = local;
             });
-        if by_domains {
-            let sums = &mut self.sums;
-            for cell in 0..sums.len() {
-                let [left, right] =
-                    neighbour_shares(cell, sums.len(), |e, k| sums[e].mass_shares[k]);
-                sums[cell].mass = left + sums[cell].mass_shares[1] + right;
-            }
-        }
+        // Pass 2: plain fits of stress and density, density limiter.
+        let (taylor, sums, points) = (&self.taylor, &self.sums, &self.points);
+        let density_kind = |cell: usize| {
+            FitKind::Conservative(cell_total(sums, cell, |s| s.mass_shares) / domains.length(cell))
+        };
+        let limited: u64 = (
+            self.stress.coefficients.par_iter_mut(),
+            self.stress.state.par_iter_mut(),
+            self.density.coefficients.par_iter_mut(),
+            self.density.state.par_iter_mut(),
+        )
+            .into_par_iter()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .map(
+                |(cell, (stress_a, stress_state, density_a, density_state))| {
+                    let active = domains.is_active(cell);
+                    let s = &sums[cell];
+                    (*stress_state, *stress_a) =
+                        plain_fit(active, &s.normal, &s.stress_rhs, FitKind::Full);
+                    (*density_state, *density_a) =
+                        plain_fit(active, &s.normal, &s.density_rhs, density_kind(cell));
+                    if *density_state == FitState::Fitted {
+                        limit_density(
+                            &taylor[cell],
+                            points,
+                            domains.lo[cell],
+                            domains.hi[cell],
+                            density_a,
+                        )
+                    } else {
+                        0
+                    }
+                },
+            )
+            .sum();
+        // Pass 3 (only where needed): repairs from the neighbours' plain fits.
+        let mut counts = RemedyCounts {
+            density_limited_fits: limited,
+            ..RemedyCounts::default()
+        };
+        let context = FitContext {
+            grid: &self.grid,
+            remedy: self.remedy,
+            taylor,
+            sums,
+        };
+        counts += context.repair_all(
+            &mut self.stress,
+            |cell| sums[cell].stress_rhs,
+            |_| FitKind::Full,
+            |_, _| 0,
+        );
+        counts += context.repair_all(
+            &mut self.density,
+            |cell| sums[cell].density_rhs,
+            density_kind,
+            |cell, a| limit_density(&taylor[cell], points, domains.lo[cell], domains.hi[cell], a),
+        );
+        self.remedies += counts;
+        // Pass 4: Gauss quadrature.
+        let (stress, density) = (&self.stress.coefficients, &self.density.coefficients);
+        integrate_mass_and_force(
+            &mut self.scatter,
+            basis,
+            domains,
+            points,
+            |cell, x| taylor[cell].eval(&stress[cell], x),
+            |cell, x| taylor[cell].eval(&density[cell], x),
+            grid,
+        );
     }
 
-    /// Scale the density fits towards their mean where they dip below zero at a Gauss
-    /// point (conservative positivity limiter).
-    fn limit_density(&mut self) -> u64 {
-        let (domains, taylor, points) = (&self.domains, &self.taylor, &self.points);
-        self.density
+    fn map_momentum<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+    ) {
+        let by_domains = self.totals == CellTotals::Domains;
+        let (mesh, domains, taylor) = (&self.grid, &self.domains, &self.taylor);
+        let (x, mass, volume, density, v) = (
+            &particles.x,
+            &particles.mass,
+            &particles.volume,
+            &particles.density,
+            &particles.v,
+        );
+        // Pass 1: right-hand sides and momentum shares (D is still valid).
+        self.sums
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .map(|(cell, a)| {
-                if !domains.is_active(cell) || a[0] <= 0.0 {
-                    return 0;
+            .for_each(|(cell, sums)| {
+                sums.momentum_rhs = [0.0; 3];
+                sums.momentum_shares = [0.0; 3];
+                if !domains.is_active(cell) {
+                    return;
                 }
-                let mut lowest = f64::INFINITY;
-                points.for_each(domains.lo[cell], domains.hi[cell], |x, _| {
-                    lowest = lowest.min(taylor[cell].eval(a, x));
-                });
-                if lowest >= 0.0 {
-                    return 0;
+                let basis = taylor[cell];
+                let (mut rhs, mut shares) = ([0.0; 3], [0.0; 3]);
+                for p in bins.range(cell) {
+                    let psi = basis.psi(x[p]);
+                    let momentum = mass[p] * v[p];
+                    add_rhs(&mut rhs, &psi, density[p] * v[p]);
+                    if by_domains {
+                        add_shares(&mut shares, mesh, cell, x[p], volume[p], momentum);
+                    } else {
+                        shares[1] += momentum;
+                    }
                 }
-                let theta = a[0] / (a[0] - lowest);
-                a[1] *= theta;
-                a[2] *= theta;
-                1
-            })
-            .sum()
+                sums.momentum_rhs = rhs;
+                sums.momentum_shares = shares;
+            });
+        // Pass 2: plain fits; pass 3: repairs.
+        let sums = &self.sums;
+        let kind = |cell: usize| {
+            FitKind::Conservative(
+                cell_total(sums, cell, |s| s.momentum_shares) / domains.length(cell),
+            )
+        };
+        (
+            self.momentum.coefficients.par_iter_mut(),
+            self.momentum.state.par_iter_mut(),
+        )
+            .into_par_iter()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, (a, state))| {
+                (*state, *a) = plain_fit(
+                    domains.is_active(cell),
+                    &sums[cell].normal,
+                    &sums[cell].momentum_rhs,
+                    kind(cell),
+                );
+            });
+        let context = FitContext {
+            grid: mesh,
+            remedy: self.remedy,
+            taylor,
+            sums,
+        };
+        self.remedies += context.repair_all(
+            &mut self.momentum,
+            |cell| sums[cell].momentum_rhs,
+            kind,
+            |_, _| 0,
+        );
+        // Pass 4: Gauss quadrature.
+        let momentum = &self.momentum.coefficients;
+        integrate_momentum(
+            &mut self.scatter,
+            basis,
+            domains,
+            &self.points,
+            |cell, x| taylor[cell].eval(&momentum[cell], x),
+            grid,
+        );
+    }
+
+    fn remedies(&self) -> RemedyCounts {
+        self.remedies
     }
 }
 
@@ -236,235 +554,6 @@ fn add_shares(shares: &mut [f64; 3], grid: &Grid, cell: usize, x: f64, volume: f
     shares[0] += to_left;
     shares[1] += q - to_left - to_right;
     shares[2] += to_right;
-}
-
-/// What the neighbours of `cell` give it: `[left cell's right share, right cell's left
-/// share]`, with `share(e, k)` reading cell `e`'s shares.
-#[inline]
-fn neighbour_shares(cell: usize, cells: usize, share: impl Fn(usize, usize) -> f64) -> [f64; 2] {
-    [
-        if cell > 0 { share(cell - 1, 2) } else { 0.0 },
-        if cell + 1 < cells {
-            share(cell + 1, 0)
-        } else {
-            0.0
-        },
-    ]
-}
-
-/// Fit one field in every active cell, in two batched passes: plain fits, then the
-/// remedies of the degenerate cells from their well-posed neighbours. `rhs(cell)` is the
-/// field's right-hand side, `kind(cell)` full or conservative.
-#[allow(clippy::too_many_arguments)]
-fn fit_field<R, K>(
-    grid: &Grid,
-    remedy: DegenerateRemedy,
-    domains: &CellDomains,
-    taylor: &[TaylorCell],
-    sums: &[CellSums],
-    rhs: R,
-    kind: K,
-    first_fit: &mut [FirstFit],
-    coefficients: &mut [[f64; 3]],
-) -> RemedyCounts
-where
-    R: Fn(usize) -> [f64; 3] + Sync,
-    K: Fn(usize) -> FitKind + Sync,
-{
-    first_fit
-        .par_iter_mut()
-        .with_min_len(CELLS_PER_TASK)
-        .enumerate()
-        .for_each(|(cell, first)| {
-            *first = if !domains.is_active(cell) {
-                FirstFit::Inactive
-            } else {
-                match solve(&sums[cell].normal, &rhs(cell), kind(cell), 3) {
-                    Some(a) => FirstFit::Fitted(a),
-                    None => FirstFit::Degenerate,
-                }
-            };
-        });
-    let first_fit = &*first_fit;
-    coefficients
-        .par_iter_mut()
-        .with_min_len(CELLS_PER_TASK)
-        .enumerate()
-        .map(|(cell, a)| {
-            let mut counts = RemedyCounts::default();
-            *a = match first_fit[cell] {
-                FirstFit::Inactive => [0.0; 3],
-                FirstFit::Fitted(fitted) => fitted,
-                FirstFit::Degenerate => {
-                    counts.degenerate_fits = 1;
-                    let mut normal = sums[cell].normal;
-                    let mut b = rhs(cell);
-                    let mut repaired = None;
-                    if remedy == DegenerateRemedy::VirtualPoints {
-                        // Neighbour cells and the faces they share with `cell`.
-                        let left = cell.checked_sub(1).map(|n| (n, grid.cell_left(cell)));
-                        let right =
-                            (cell + 1 < grid.cells).then(|| (cell + 1, grid.cell_left(cell + 1)));
-                        for (neighbour, face) in left.into_iter().chain(right) {
-                            if let FirstFit::Fitted(an) = first_fit[neighbour] {
-                                let value = taylor[neighbour].eval(&an, face);
-                                let psi = taylor[cell].psi(face);
-                                normal.add(&psi);
-                                add_rhs(&mut b, &psi, value);
-                            }
-                        }
-                        repaired = solve(&normal, &b, kind(cell), 3);
-                    }
-                    match repaired {
-                        Some(fitted) => {
-                            counts.virtual_point_fits = 1;
-                            fitted
-                        }
-                        None => {
-                            counts.order_reduced_fits = 1;
-                            solve_reduced(&normal, &b, kind(cell)).0
-                        }
-                    }
-                }
-            };
-            counts
-        })
-        .reduce(RemedyCounts::default, |mut a, b| {
-            a += b;
-            a
-        })
-}
-
-impl Mapping for TlsMapping {
-    fn name(&self) -> &'static str {
-        "tls"
-    }
-
-    fn map_mass_and_internal_force<B: Basis>(
-        &mut self,
-        basis: &B,
-        particles: &Particles,
-        bins: &CellBins,
-        grid: &mut GridFields,
-    ) {
-        self.accumulate(particles, bins);
-        let Self {
-            grid: mesh,
-            remedy,
-            domains,
-            taylor,
-            sums,
-            first_fit,
-            stress,
-            density,
-            ..
-        } = self;
-        let sums_ref = &*sums;
-        let mut counts = fit_field(
-            mesh,
-            *remedy,
-            domains,
-            taylor,
-            sums_ref,
-            |cell| sums_ref[cell].stress_rhs,
-            |_| FitKind::Full,
-            first_fit,
-            stress,
-        );
-        let domains_ref = &*domains;
-        counts += fit_field(
-            mesh,
-            *remedy,
-            domains,
-            taylor,
-            sums_ref,
-            |cell| sums_ref[cell].density_rhs,
-            |cell| FitKind::Conservative(sums_ref[cell].mass / domains_ref.length(cell)),
-            first_fit,
-            density,
-        );
-        counts.density_limited_fits = self.limit_density();
-        self.remedies += counts;
-        let (taylor, stress, density) = (&self.taylor, &self.stress, &self.density);
-        integrate_mass_and_force(
-            &mut self.scatter,
-            basis,
-            &self.domains,
-            &self.points,
-            |cell, x| taylor[cell].eval(&stress[cell], x),
-            |cell, x| taylor[cell].eval(&density[cell], x),
-            grid,
-        );
-    }
-
-    fn map_momentum<B: Basis>(
-        &mut self,
-        basis: &B,
-        particles: &Particles,
-        bins: &CellBins,
-        grid: &mut GridFields,
-    ) {
-        let (x, mass, volume, v) = (
-            &particles.x,
-            &particles.mass,
-            &particles.volume,
-            &particles.v,
-        );
-        let (domains, taylor, mesh) = (&self.domains, &self.taylor, &self.grid);
-        let by_domains = self.totals == CellTotals::Domains;
-        self.momentum_sums
-            .par_iter_mut()
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .for_each(|(cell, sums)| {
-                *sums = MomentumSums::default();
-                if !domains.is_active(cell) {
-                    return;
-                }
-                for p in bins.range(cell) {
-                    let psi = taylor[cell].psi(x[p]);
-                    let momentum = mass[p] * v[p];
-                    add_rhs(&mut sums.rhs, &psi, momentum / volume[p]);
-                    sums.total += momentum;
-                    if by_domains {
-                        add_shares(&mut sums.shares, mesh, cell, x[p], volume[p], momentum);
-                    }
-                }
-            });
-        if by_domains {
-            let sums = &mut self.momentum_sums;
-            for cell in 0..sums.len() {
-                let [left, right] = neighbour_shares(cell, sums.len(), |e, k| sums[e].shares[k]);
-                sums[cell].total = left + sums[cell].shares[1] + right;
-            }
-        }
-        let momentum_sums = &self.momentum_sums;
-        let counts = fit_field(
-            &self.grid,
-            self.remedy,
-            domains,
-            taylor,
-            &self.sums,
-            |cell| momentum_sums[cell].rhs,
-            |cell| FitKind::Conservative(momentum_sums[cell].total / domains.length(cell)),
-            &mut self.first_fit,
-            &mut self.momentum,
-        );
-        self.remedies += counts;
-        let (taylor, momentum) = (&self.taylor, &self.momentum);
-        integrate_momentum(
-            &mut self.scatter,
-            basis,
-            &self.domains,
-            &self.points,
-            |cell, x| taylor[cell].eval(&momentum[cell], x),
-            grid,
-        );
-    }
-
-    fn remedies(&self) -> RemedyCounts {
-        self.remedies
-    }
 }
 
 #[cfg(test)]
@@ -623,7 +712,7 @@ mod tests {
                 for t in [0.0, 0.3, 1.0] {
                     let x = grid.cell_left(e) + t * grid.h;
                     let x = x.clamp(mapping.domains().lo[e], mapping.domains().hi[e]);
-                    let value = taylor.eval(&mapping.stress[e], x);
+                    let value = taylor.eval(&mapping.stress()[e], x);
                     prop_assert!((value - q(x)).abs() < 1e-9, "cell {} x {}: {} vs {}", e, x, value, q(x));
                 }
             }
@@ -648,7 +737,7 @@ mod tests {
         assert!(remedies.degenerate_fits > 0, "{remedies:?}");
         assert!(remedies.virtual_point_fits > 0, "{remedies:?}");
         // The empty cell has no reconstruction.
-        assert_eq!(mapping.stress[4], [0.0; 3]);
+        assert_eq!(mapping.stress()[4], [0.0; 3]);
         assert!(!mapping.domains().is_active(4));
     }
 }

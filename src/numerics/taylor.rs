@@ -17,9 +17,10 @@
 //! **Well-posedness.** A block is accepted when the points excite every fitted function:
 //! with `n` points and the moments of evenly spread points `S = diag(1, 1/3, 1/45)`
 //! (`S_i = (1/2) int_{-1}^{1} psi_i^2 ds`), the block is scaled to
-//! `D_ij / (n sqrt(S_i S_j))` (the identity for evenly spread points) and factored by
-//! Cholesky; every pivot, the part of a function's scaled mean square that the previous
-//! functions do not explain, must be at least [`MIN_SPREAD`]. Two points for three
+//! `D_ij / (n sqrt(S_i S_j))` (the identity for evenly spread points); every pivot of its
+//! `L D L^T` factorisation, the part of a function's scaled mean square that the previous
+//! functions do not explain, must be at least [`MIN_SPREAD`] (equivalently: pivot `i` of
+//! `D` itself at least `MIN_SPREAD n S_i`). Two points for three
 //! unknowns, or one point near the centre for a slope, fail the test ([`solve`] returns
 //! `None`) instead of producing a wild extrapolation; [`solve_reduced`] then drops `psi_3`,
 //! then `psi_2`, and never fails. The test costs no more than the solve itself.
@@ -27,9 +28,9 @@
 /// Smallest accepted eigenvalue of the scaled normal-equation block.
 pub const MIN_SPREAD: f64 = 1e-3;
 
-/// `1 / sqrt(S_i)` with `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds = [1, 1/3, 1/45]`, the mean
-/// square of each Taylor function over evenly spread points.
-const INV_SQRT_MOMENTS: [f64; 3] = [1.0, 1.732_050_807_568_877_2, 6.708_203_932_499_369];
+/// `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds`: the mean square of each Taylor function over
+/// evenly spread points.
+const EVEN_MOMENTS: [f64; 3] = [1.0, 1.0 / 3.0, 1.0 / 45.0];
 
 /// The Taylor basis of one interval.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -129,32 +130,33 @@ pub fn solve(
     if n == 0 {
         return Some(a);
     }
-    // The scaled block W D[first..terms, first..terms] W with W = diag(1 / sqrt(n S_i))
-    // and its right-hand side W (r - a_1 D[.., 1]).
-    let scale_count = 1.0 / (normal.count.max(1) as f64).sqrt();
-    let mut w = [0.0; 3];
-    for (i, wi) in w.iter_mut().enumerate().take(n) {
-        *wi = INV_SQRT_MOMENTS[first + i] * scale_count;
-    }
+    // The block D[first..terms, first..terms], its right-hand side r - a_1 D[.., 1], and
+    // the pivot thresholds: a pivot of the scaled block W D W (W = diag(1/sqrt(n S_i))) is
+    // the pivot of D divided by n S_i, so no scaling is needed.
+    let count = normal.count.max(1) as f64;
     let mut m = [[0.0; 3]; 3];
     let mut b = [0.0; 3];
+    let mut threshold = [0.0; 3];
     for i in 0..n {
         for (j, entry) in m[i].iter_mut().enumerate().take(n) {
             let (r, c) = (first + i.min(j), first + i.max(j));
-            *entry = normal.d[r][c] * w[i] * w[j];
+            *entry = normal.d[r][c];
         }
         let fixed = if first == 1 {
             a[0] * normal.d[0][1 + i]
         } else {
             0.0
         };
-        b[i] = (rhs[first + i] - fixed) * w[i];
+        b[i] = rhs[first + i] - fixed;
+        threshold[i] = MIN_SPREAD * count * EVEN_MOMENTS[first + i];
     }
-    let y = solve_spd(&m, &b, n)?;
-    for i in 0..n {
-        a[first + i] = y[i] * w[i];
-    }
-
+    // Fixed sizes, so that the factorisation loops unroll.
+    let x = match n {
+        1 => solve_ldl::<1>(&m, &b, &threshold)?,
+        2 => solve_ldl::<2>(&m, &b, &threshold)?,
+        _ => solve_ldl::<3>(&m, &b, &threshold)?,
+    };
+    a[first..first + n].copy_from_slice(&x[..n]);
     Some(a)
 }
 
@@ -174,38 +176,52 @@ pub fn solve_reduced(normal: &NormalMatrix, rhs: &[f64; 3], kind: FitKind) -> ([
     ([a1, 0.0, 0.0], 1)
 }
 
-/// Solve the scaled `n x n` (n <= 3) SPD system `m x = b` by Cholesky; `None` if a pivot
-/// (squared diagonal of the factor) is below [`MIN_SPREAD`] or not finite.
-fn solve_spd(m: &[[f64; 3]; 3], b: &[f64; 3], n: usize) -> Option<[f64; 3]> {
+/// Solve the `N x N` (N <= 3) SPD system `m x = b` by `L D L^T` (no square roots); `None`
+/// if a pivot `d_i` is below `threshold[i]` or not a number.
+#[inline]
+fn solve_ldl<const N: usize>(
+    m: &[[f64; 3]; 3],
+    b: &[f64; 3],
+    threshold: &[f64; 3],
+) -> Option<[f64; 3]> {
     let mut l = [[0.0; 3]; 3];
-    for i in 0..n {
-        for j in 0..=i {
-            let s = m[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
-            if i == j {
-                if s.is_nan() || s < MIN_SPREAD {
-                    return None;
-                }
-                l[i][i] = s.sqrt();
-            } else {
-                l[i][j] = s / l[j][j];
+    let mut d = [0.0; 3];
+    let mut inv_d = [0.0; 3];
+    for i in 0..N {
+        for j in 0..i {
+            let mut s = m[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k] * d[k];
             }
+            l[i][j] = s * inv_d[j];
         }
-    }
-    let mut y = [0.0; 3];
-    for i in 0..n {
-        let mut s = b[i];
+        let mut pivot = m[i][i];
         for k in 0..i {
-            s -= l[i][k] * y[k];
+            pivot -= l[i][k] * l[i][k] * d[k];
         }
-        y[i] = s / l[i][i];
+        if pivot.is_nan() || pivot < threshold[i] {
+            return None;
+        }
+        d[i] = pivot;
+        inv_d[i] = 1.0 / pivot;
     }
     let mut x = [0.0; 3];
-    for i in (0..n).rev() {
-        let mut s = y[i];
-        for k in i + 1..n {
+    for i in 0..N {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i][k] * x[k];
+        }
+        x[i] = s;
+    }
+    for i in 0..N {
+        x[i] *= inv_d[i];
+    }
+    for i in (0..N).rev() {
+        let mut s = x[i];
+        for k in i + 1..N {
             s -= l[k][i] * x[k];
         }
-        x[i] = s / l[i][i];
+        x[i] = s;
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
@@ -271,14 +287,8 @@ mod tests {
         assert!((cell.eval(&a, 0.95) - 7.0).abs() < 1e-12);
     }
 
-    /// `S_i`, see [`INV_SQRT_MOMENTS`].
-    const EVEN_MOMENTS: [f64; 3] = [1.0, 1.0 / 3.0, 1.0 / 45.0];
-
     #[test]
     fn evenly_spread_points_have_unit_scaled_moments() {
-        for (s, inv) in EVEN_MOMENTS.iter().zip(INV_SQRT_MOMENTS) {
-            assert!((inv * inv * s - 1.0).abs() < 1e-15);
-        }
         // The midpoint rule with many points approximates the even moments.
         let cell = TaylorCell::new(-1.0, 1.0);
         let n = 2000;
