@@ -85,10 +85,10 @@ impl<'a> Subpoints<'a> {
         // inside the particle domain. (A non-finite volume gives non-finite sub-points,
         // which belong to no cell; the stepper reports the non-finite state.)
         let largest =
-            particles
-                .volume
-                .iter()
-                .fold(0.0f64, |m, &v| if v.is_finite() { m.max(v) } else { m });
+            particles.volume.iter().fold(
+                0.0f64,
+                |m, &v| if v.is_finite() { m.max(v.abs()) } else { m },
+            );
         let cells = grid.cells;
         let reach = 0.5 * largest * grid.inv_h + 1.0;
         let reach = if reach < cells as f64 {
@@ -167,7 +167,8 @@ impl<'a> Subpoints<'a> {
             left + grid.h
         };
         for p in from..to {
-            let half = 0.5 * self.volume[p];
+            // |V_p|: a (broken) negative volume mirrors the sub-points, same span.
+            let half = 0.5 * self.volume[p].abs();
             let (lo, hi) = (self.x[p] - half, self.x[p] + half);
             if hi < lower - margin || lo > upper + margin {
                 continue;
