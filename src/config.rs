@@ -168,6 +168,19 @@ pub enum ReconstructionKind {
     Imls,
 }
 
+impl ReconstructionKind {
+    /// The scenario value (`method.reconstruction`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Tls => "tls",
+            Self::CubicSpline => "cubic_spline",
+            Self::Mls => "mls",
+            Self::Imls => "imls",
+        }
+    }
+}
+
 /// Mass matrix used to turn forces and momenta into accelerations and velocities.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -204,7 +217,7 @@ pub struct MethodConfig {
     pub mass: MassKind,
     #[serde(default)]
     pub scheme: Scheme,
-    /// DDMPM sub-points per particle (0 = off).
+    /// DDMPM sub-points per particle (0 = off; SPEC §3.3). Needs `reconstruction = "none"`.
     #[serde(default)]
     pub subpoints: usize,
     /// Mass matrix of the acceleration solve (SPEC §2 step 2); `method.mass` is the one of
@@ -253,6 +266,10 @@ pub enum NodeIntegrals {
     /// Exact integrals over the material domain (the cells holding particles, clipped to
     /// the material extent), as the Gauss quadrature of a reconstruction integrates.
     Domain,
+    /// Quadrature by the `method.subpoints` sub-points of every particle (Dhakal & Zhang's
+    /// sub-points, SPEC §3.3): from particle quadrature (1 sub-point) towards the exact
+    /// domain integrals as the count grows.
+    Subpoints,
 }
 
 /// `method.degenerate_cells` (SPEC §4.1).
@@ -291,10 +308,12 @@ impl Default for MethodConfig {
 
 impl MethodConfig {
     /// `method.node_integrals` if given, else particle quadrature for the direct mapping
-    /// and exact domain integrals for reconstructions (which replace particle quadrature
+    /// (sub-point quadrature with sub-points) and exact domain integrals for reconstructions (which replace particle quadrature
     /// by Gauss quadrature everywhere; this reproduces the published DDMPM-TLS error).
+    /// With `method.subpoints > 0` the default is sub-point quadrature.
     pub fn node_integrals(&self) -> NodeIntegrals {
         self.node_integrals.unwrap_or(match self.reconstruction {
+            ReconstructionKind::None if self.subpoints > 0 => NodeIntegrals::Subpoints,
             ReconstructionKind::None => NodeIntegrals::Particles,
             _ => NodeIntegrals::Domain,
         })
@@ -422,6 +441,9 @@ impl Default for OutputConfig {
 
 /// Largest particle count accepted (about 16 GB of particle arrays).
 pub const MAX_PARTICLES: usize = 200_000_000;
+
+/// Largest `method.subpoints` accepted.
+pub const MAX_SUBPOINTS: usize = 65_536;
 
 /// Largest number of time steps accepted.
 pub const MAX_STEPS: usize = 10_000_000_000;
@@ -686,6 +708,27 @@ impl Scenario {
             MaterialModel::TwoPhase => return not_yet("material.model", "two_phase"),
             _ => {}
         }
+        // DDMPM sub-points (SPEC §3.3) replace the particle quadrature of the direct
+        // mapping; they do not combine with a reconstruction. Any basis accepts them (the
+        // published comparison pairs them with `ddmpm`).
+        if self.method.subpoints != 0 && self.method.reconstruction != ReconstructionKind::None {
+            return Err(Error::invalid(
+                "method.subpoints",
+                self.method.subpoints,
+                format!(
+                    "sub-points need method.reconstruction = \"none\" (got \"{}\"); set \
+                     method.subpoints = 0 to use a reconstruction",
+                    self.method.reconstruction.name()
+                ),
+            ));
+        }
+        if self.method.subpoints > MAX_SUBPOINTS {
+            return Err(Error::invalid(
+                "method.subpoints",
+                self.method.subpoints,
+                format!("more than {MAX_SUBPOINTS} sub-points per particle"),
+            ));
+        }
         match self.method.reconstruction {
             ReconstructionKind::None
             | ReconstructionKind::Tls
@@ -713,13 +756,6 @@ impl Scenario {
                     "must be 0 (automatic) or between 2 and {}",
                     crate::numerics::gauss::MAX_POINTS
                 ),
-            ));
-        }
-        if self.method.subpoints != 0 {
-            return Err(Error::invalid(
-                "method.subpoints",
-                self.method.subpoints,
-                "DDMPM sub-points are not available in this version of tlsmpm",
             ));
         }
         if self.output.vtk {
@@ -818,6 +854,29 @@ end = 1.9e-6
             assert!(err.to_string().contains(key), "{set}: {err}");
             assert!(err.is_input_error());
         }
+    }
+
+    #[test]
+    fn subpoints_need_the_direct_mapping() {
+        let with = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            from_str(BAR, "bar", &sets).and_then(|s| s.validate())
+        };
+        with(&["method.basis=ddmpm", "method.subpoints=4"]).unwrap();
+        with(&["method.subpoints=1", "method.mass=consistent"]).unwrap();
+        for reconstruction in ["tls", "cubic_spline"] {
+            let err = with(&[
+                "method.subpoints=4",
+                &format!("method.reconstruction={reconstruction}"),
+            ])
+            .unwrap_err();
+            let text = err.to_string();
+            assert!(text.contains("method.subpoints"), "{text}");
+            assert!(text.contains(reconstruction), "{text}");
+            assert!(err.is_input_error());
+        }
+        let err = with(&["method.subpoints=1000000"]).unwrap_err();
+        assert!(err.to_string().contains("method.subpoints"), "{err}");
     }
 
     #[test]

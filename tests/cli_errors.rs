@@ -339,6 +339,12 @@ fn unavailable_methods_name_their_key() {
     }
     expect_input_error(
         BAR,
+        &[TINY, "method.subpoints=4", "method.reconstruction=tls"],
+        &[],
+        &["`method.subpoints`", "4", "reconstruction", "tls"],
+    );
+    expect_input_error(
+        BAR,
         &[TINY, "method.mass=consistent", "solver.kind=pmg"],
         &[],
         &["`solver.kind`", "pmg", "not available"],

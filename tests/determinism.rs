@@ -78,6 +78,19 @@ fn reconstructions_give_the_same_bits_on_one_and_three_threads() {
 }
 
 #[test]
+fn ddmpm_subpoints_give_the_same_bits_on_one_and_three_threads() {
+    // Sub-points cross into neighbouring cells; the mapping bins them by their own cell.
+    let keys = ["method.basis=\"ddmpm\"", "method.subpoints=5"];
+    let (serial, serial_history) = simulate_with(1, 100, &keys);
+    let (parallel, parallel_history) = simulate_with(3, 100, &keys);
+    assert_eq!(serial.id, parallel.id);
+    assert_eq!(bits(&serial.x), bits(&parallel.x));
+    assert_eq!(bits(&serial.v), bits(&parallel.v));
+    assert_eq!(bits(&serial.stress), bits(&parallel.stress));
+    assert_eq!(serial_history, parallel_history);
+}
+
+#[test]
 fn one_two_and_three_threads_give_the_same_bits() {
     let (serial, serial_history) = simulate(1, 300);
     assert!(

@@ -1,13 +1,14 @@
 //! Scenario → [`Simulation`]: validation, the stability check, and the dispatch from
 //! scenario keys to monomorphised steppers (`Stepper<LinearBasis, DirectMapping>`,
-//! `Stepper<BSplineBasis, DirectMapping>`, ...): the only place that matches on
-//! `method.basis` and `method.reconstruction`.
+//! `Stepper<BSplineBasis, DirectMapping>`, `Stepper<DdmpmBasis, SubpointMapping>`, ...):
+//! the only place that matches on `method.basis`, `method.reconstruction` and
+//! `method.subpoints`.
 
 use crate::config::{BasisKind, ReconstructionKind, Scenario, SolverKind};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::{BandedCholesky, ConjugateGradient, LinearSolver};
-use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, TlsMapping};
+use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping, TlsMapping};
 use crate::particles::Particles;
 use crate::physics::stability::critical_time_step;
 use crate::physics::step::TimeStepper;
@@ -45,6 +46,11 @@ pub fn build_simulation(
     };
     let method = &scenario.method;
     let stepper = match method.reconstruction {
+        // DDMPM sub-points (SPEC §3.3): the direct quadrature over N points per particle.
+        ReconstructionKind::None if method.subpoints > 0 => {
+            let mapping = SubpointMapping::new(grid, method.subpoints);
+            with_basis(scenario, parts, mapping, &mut particles)?
+        }
         ReconstructionKind::None => {
             with_basis(scenario, parts, DirectMapping::default(), &mut particles)?
         }
@@ -120,7 +126,11 @@ fn with_basis<M: Mapping + 'static>(
     match scenario.method.basis {
         BasisKind::Linear => stepper(scenario, parts, LinearBasis::new(grid), mapping, particles),
         BasisKind::Ddmpm => {
-            let basis = DdmpmBasis::with_integrals(grid, scenario.method.node_integrals());
+            let basis = DdmpmBasis::with_integrals(
+                grid,
+                scenario.method.node_integrals(),
+                scenario.method.subpoints,
+            );
             stepper(scenario, parts, basis, mapping, particles)
         }
         BasisKind::Gimp => stepper(scenario, parts, GimpBasis::new(grid), mapping, particles),

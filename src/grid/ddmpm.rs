@@ -19,7 +19,10 @@
 //! in a cell, each cell needs only the two integrals `S_e^L = int_e phi_e` and
 //! `S_e^R = int_e phi_{e+1}` (particle sums `sum_p V_p phi(x_p)`, or exactly
 //! `h [(b - a) - (b^2 - a^2)/2]` and `h (b^2 - a^2)/2` for the active part
-//! `[x_e + a h, x_e + b h]`):
+//! `[x_e + a h, x_e + b h]`); with `subpoints` (the default when `method.subpoints = N > 0`)
+//! they are sums over the `N` sub-points `x_p + ((k + 1/2)/N - 1/2) V_p` of every particle
+//! (weight `V_p / N`, clipped to the grid), in closed form per particle and cell (the
+//! sub-points in a cell are a contiguous run of an arithmetic progression):
 //!
 //! ```text
 //! V_j = S_j^L + S_{j-1}^R,   G_{j,j-1} = -S_{j-1}^R / h,   G_{jj} = (S_{j-1}^R - S_j^L) / h,   G_{j,j+1} = S_j^L / h
@@ -41,6 +44,8 @@ const CELLS_PER_TASK: usize = 256;
 pub struct DdmpmBasis {
     grid: Grid,
     integrals: NodeIntegrals,
+    /// Sub-points per particle for [`NodeIntegrals::Subpoints`].
+    subpoints: usize,
     /// Per cell `[S^L, S^R]`.
     cell_integrals: Vec<[f64; 2]>,
     /// Per node `G_{j,i} / V_j` for `i = j - 1, j, j + 1`.
@@ -51,14 +56,16 @@ impl DdmpmBasis {
     /// The basis on `grid` with node integrals by particle quadrature; [`Basis::update`]
     /// must run before the first evaluation.
     pub fn new(grid: Grid) -> Self {
-        Self::with_integrals(grid, NodeIntegrals::Particles)
+        Self::with_integrals(grid, NodeIntegrals::Particles, 1)
     }
 
-    /// The basis on `grid` with the given quadrature of the node integrals.
-    pub fn with_integrals(grid: Grid, integrals: NodeIntegrals) -> Self {
+    /// The basis on `grid` with the given quadrature of the node integrals (`subpoints`
+    /// per particle for [`NodeIntegrals::Subpoints`], at least 1).
+    pub fn with_integrals(grid: Grid, integrals: NodeIntegrals, subpoints: usize) -> Self {
         Self {
             grid,
             integrals,
+            subpoints: subpoints.max(1),
             cell_integrals: vec![[0.0; 2]; grid.cells],
             weighted_integrals: vec![[0.0; 3]; grid.cells + 1],
         }
@@ -120,10 +127,18 @@ impl Basis for DdmpmBasis {
 
     fn update(&mut self, quadrature: ParticleQuadrature<'_>) {
         let grid = self.grid;
-        let integrals = self.integrals;
+        let integrals = match (self.integrals, self.subpoints) {
+            // One sub-point is the particle itself.
+            (NodeIntegrals::Subpoints, 1) => NodeIntegrals::Particles,
+            (integrals, _) => integrals,
+        };
         let extent = match integrals {
             NodeIntegrals::Domain => quadrature.material_extent(),
-            NodeIntegrals::Particles => (0.0, 0.0),
+            _ => (0.0, 0.0),
+        };
+        let (subpoints, reach) = match integrals {
+            NodeIntegrals::Subpoints => (self.subpoints, subpoint_reach(&grid, quadrature)),
+            _ => (1, 0),
         };
         self.cell_integrals
             .par_iter_mut()
@@ -137,6 +152,23 @@ impl Basis for DdmpmBasis {
                         let (a, b) = ((lo - left) * grid.inv_h, (hi - left) * grid.inv_h);
                         let right = 0.5 * (b * b - a * a);
                         s = [grid.h * ((b - a) - right), grid.h * right];
+                    }
+                    *sums = s;
+                    return;
+                }
+                if integrals == NodeIntegrals::Subpoints {
+                    let first = cell.saturating_sub(reach);
+                    let last = (cell + reach).min(grid.cells - 1);
+                    for p in quadrature.cell_start[first]..quadrature.cell_start[last + 1] {
+                        let [l, r] = subpoint_sums(
+                            &grid,
+                            cell,
+                            quadrature.x[p],
+                            quadrature.volume[p],
+                            subpoints,
+                        );
+                        s[0] += l;
+                        s[1] += r;
                     }
                     *sums = s;
                     return;
@@ -175,6 +207,74 @@ impl Basis for DdmpmBasis {
             };
         }
     }
+}
+
+/// How many cells away a particle's sub-points can lie: `ceil(max_p V_p / (2h))`.
+fn subpoint_reach(grid: &Grid, quadrature: ParticleQuadrature<'_>) -> usize {
+    let largest = quadrature
+        .volume
+        .par_iter()
+        .copied()
+        .reduce(|| 0.0, |a: f64, b: f64| if b > a { b } else { a });
+    let reach = (0.5 * largest * grid.inv_h).ceil();
+    if reach.is_finite() && reach < grid.cells as f64 {
+        reach as usize
+    } else {
+        grid.cells
+    }
+}
+
+/// `[sum_k w phi_e(x_k), sum_k w phi_{e+1}(x_k)]` over the sub-points
+/// `x_k = x + ((k + 1/2)/n - 1/2) V`, `k < n`, `w = V / n`, that lie in cell `e` (a point on
+/// a face belongs to the cell on its right, the last face to the last cell; points beyond
+/// the grid are moved to its ends). The points in the cell are `k0 <= k < k1`, so
+/// `sum xi_k = sum (x_k - x_e)/h` is an arithmetic sum.
+fn subpoint_sums(grid: &Grid, cell: usize, x: f64, volume: f64, n: usize) -> [f64; 2] {
+    let spacing = volume / n as f64;
+    let start = x - 0.5 * volume;
+    let left = grid.cell_left(cell);
+    let right = left + grid.h;
+    let count = n as f64;
+    // Index of the first sub-point at or right of `y` (as a real, clamped to [0, n]).
+    let first_at_or_after = |y: f64| ((y - start) / spacing - 0.5).ceil().clamp(0.0, count);
+    let end = grid.origin + grid.length;
+    let k0 = if cell == 0 {
+        0.0
+    } else {
+        first_at_or_after(left)
+    };
+    let k1 = if cell + 1 == grid.cells {
+        count
+    } else {
+        first_at_or_after(right)
+    };
+    if spacing.is_nan() || spacing <= 0.0 || k1 <= k0 {
+        return [0.0; 2];
+    }
+    // Points below the grid sit at x = origin (xi = 0) in cell 0; above it at x = end
+    // (xi = 1) in the last cell.
+    let below = if cell == 0 {
+        first_at_or_after(grid.origin).min(k1) - k0
+    } else {
+        0.0
+    };
+    let above = if cell + 1 == grid.cells {
+        k1 - first_at_or_after(end + 1e-12 * grid.h).max(k0)
+    } else {
+        0.0
+    };
+    let (inner0, inner1) = (k0 + below, k1 - above);
+    let inner = inner1 - inner0;
+    // sum_{k = inner0}^{inner1 - 1} (k + 1/2) = (inner1^2 - inner0^2) / 2.
+    let xi_sum = if inner > 0.0 {
+        (inner * (start - left) + spacing * 0.5 * (inner1 * inner1 - inner0 * inner0)) * grid.inv_h
+    } else {
+        0.0
+    };
+    let weight = volume / count;
+    let xi_sum = xi_sum + above;
+    let points = inner.max(0.0) + below + above;
+    [weight * (points - xi_sum), weight * xi_sum]
 }
 
 #[cfg(test)]
@@ -231,6 +331,32 @@ mod tests {
             // particle quadrature).
             let g: f64 = (0..s.len).map(|k| s.dphi[k] * (2.0 * grid.cell_left(s.first + k) - 1.0)).sum();
             prop_assert!((g - 2.0).abs() < 1e-10, "{}", g);
+        }
+    }
+
+    proptest! {
+        /// The closed-form sub-point sums equal the sums over the explicit sub-points
+        /// (clipped to the grid, binned with `cell_of`), and one sub-point is the particle.
+        #[test]
+        fn subpoint_sums_match_explicit_sub_points(cells in 1usize..8, x in 0.0f64..=1.0,
+                                                   volume in 0.001f64..3.0, n in 1usize..40) {
+            let grid = Grid::new(2.0, cells);
+            let x = x * grid.length;
+            let mut explicit = vec![[0.0; 2]; cells];
+            for k in 0..n {
+                let xk = (x + ((k as f64 + 0.5) / n as f64 - 0.5) * volume).clamp(0.0, grid.length);
+                let e = grid.cell_of(xk).unwrap();
+                let xi = (xk - grid.cell_left(e)) * grid.inv_h;
+                explicit[e][0] += volume / n as f64 * (1.0 - xi);
+                explicit[e][1] += volume / n as f64 * xi;
+            }
+            for (e, expected) in explicit.iter().enumerate() {
+                let closed = subpoint_sums(&grid, e, x, volume, n);
+                for j in 0..2 {
+                    prop_assert!((closed[j] - expected[j]).abs() < 1e-9 * volume,
+                        "cell {} {:?} vs {:?}", e, closed, expected);
+                }
+            }
         }
     }
 

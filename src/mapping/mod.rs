@@ -2,8 +2,9 @@
 //!
 //! [`Mapping`] is the plug point: the direct particle quadrature of standard MPM
 //! ([`DirectMapping`]), the conservative Taylor-least-squares reconstruction with Gauss
-//! quadrature ([`TlsMapping`]) and the non-conservative global cubic-spline comparator
-//! ([`CubicSplineMapping`]). Every mapping scatters through [`scatter::CellScatter`]:
+//! quadrature ([`TlsMapping`]), the non-conservative global cubic-spline comparator
+//! ([`CubicSplineMapping`]) and DDMPM sub-points ([`SubpointMapping`], SPEC §3.3: the
+//! direct quadrature over `N` points per particle domain). Every mapping scatters through [`scatter::CellScatter`]:
 //! per-cell local buffers filled in parallel, then reduced in a fixed cell order, so grid
 //! vectors and the consistent mass matrix are bitwise identical for any thread count.
 
@@ -11,11 +12,13 @@ pub mod cubic_spline;
 pub mod direct;
 pub mod quadrature;
 pub mod scatter;
+pub mod subpoints;
 pub mod tls;
 
 pub use cubic_spline::CubicSplineMapping;
 pub use direct::DirectMapping;
 pub use scatter::CellScatter;
+pub use subpoints::SubpointMapping;
 pub use tls::TlsMapping;
 
 use crate::grid::Basis;
@@ -83,7 +86,8 @@ impl std::ops::AddAssign for RemedyCounts {
 
 /// A particle → grid transfer.
 pub trait Mapping: Send {
-    /// Name as in the scenario key `method.reconstruction`.
+    /// Name as in the scenario key `method.reconstruction` (`"subpoints"` for
+    /// [`SubpointMapping`], whose key is `method.subpoints` with reconstruction `"none"`).
     fn name(&self) -> &'static str;
 
     /// Map mass and internal force: fills `grid.mass` (row sums) and
