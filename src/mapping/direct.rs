@@ -9,9 +9,9 @@
 //! up to round-off (the lumped mapping conserves mass and momentum). The consistent mass
 //! matrix, when asked for, is `M^C_ij = sum_p m_p phi_i(x_p) phi_j(x_p)`.
 
-use super::scatter::add_outer;
+use super::points::{map_mass_and_force, map_momentum, ParticlePoints};
 use super::{CellScatter, GridFields, Mapping};
-use crate::grid::{Basis, Shape};
+use crate::grid::Basis;
 use crate::particles::{CellBins, Particles};
 
 /// Standard MPM mapping by particle quadrature.
@@ -32,40 +32,8 @@ impl Mapping for DirectMapping {
         bins: &CellBins,
         grid: &mut GridFields,
     ) {
-        let (x, mass, stress, volume) = (
-            &particles.x,
-            &particles.mass,
-            &particles.stress,
-            &particles.volume,
-        );
-        self.scatter.scatter(
-            basis,
-            bins,
-            [&mut grid.mass[..], &mut grid.internal_force[..]],
-            |cell, first, [m_local, f_local]| {
-                let mut shape = Shape::default();
-                for p in bins.range(cell) {
-                    basis.eval_particle(cell, x[p], 0.5 * volume[p], &mut shape);
-                    let offset = shape.first - first;
-                    let (m, sv) = (mass[p], stress[p] * volume[p]);
-                    for k in 0..shape.len {
-                        m_local[offset + k] += m * shape.phi[k];
-                        f_local[offset + k] += sv * shape.dphi[k];
-                    }
-                }
-            },
-        );
-        if let Some(matrix) = grid.consistent_mass.as_mut() {
-            // M^C_ij = sum_p m_p phi_i(x_p) phi_j(x_p).
-            self.scatter
-                .scatter_matrix(basis, bins.cells(), matrix, |cell, first, local| {
-                    let mut shape = Shape::default();
-                    for p in bins.range(cell) {
-                        basis.eval_particle(cell, x[p], 0.5 * volume[p], &mut shape);
-                        add_outer(local, shape.first - first, &shape, mass[p]);
-                    }
-                });
-        }
+        let points = ParticlePoints::new(particles, bins);
+        map_mass_and_force(&mut self.scatter, basis, &points, particles, bins, grid);
     }
 
     fn map_momentum<B: Basis>(
@@ -75,28 +43,8 @@ impl Mapping for DirectMapping {
         bins: &CellBins,
         grid: &mut GridFields,
     ) {
-        let (x, mass, v, volume) = (
-            &particles.x,
-            &particles.mass,
-            &particles.v,
-            &particles.volume,
-        );
-        self.scatter.scatter(
-            basis,
-            bins,
-            [&mut grid.momentum[..]],
-            |cell, first, [p_local]| {
-                let mut shape = Shape::default();
-                for p in bins.range(cell) {
-                    basis.eval_particle(cell, x[p], 0.5 * volume[p], &mut shape);
-                    let offset = shape.first - first;
-                    let mv = mass[p] * v[p];
-                    for k in 0..shape.len {
-                        p_local[offset + k] += mv * shape.phi[k];
-                    }
-                }
-            },
-        );
+        let points = ParticlePoints::new(particles, bins);
+        map_momentum(&mut self.scatter, basis, &points, particles, bins, grid);
     }
 }
 

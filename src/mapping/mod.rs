@@ -10,6 +10,7 @@
 
 pub mod cubic_spline;
 pub mod direct;
+pub mod points;
 pub mod quadrature;
 pub mod scatter;
 pub mod subpoints;

@@ -36,9 +36,9 @@
 //! [`Mapping::name`] is `"subpoints"` (the summary and plots say which mapping ran;
 //! the scenario key stays `method.reconstruction = "none"` with `method.subpoints = N`).
 
-use super::scatter::add_outer;
+use super::points::{map_mass_and_force, map_momentum, PointSet};
 use super::{CellScatter, GridFields, Mapping};
-use crate::grid::{Basis, Grid, Shape};
+use crate::grid::{Basis, Grid};
 use crate::particles::{CellBins, Particles};
 
 /// Direct particle quadrature over `N` sub-points per particle.
@@ -145,6 +145,13 @@ impl<'a> Subpoints<'a> {
         };
         first..last.max(first)
     }
+}
+
+impl PointSet for Subpoints<'_> {
+    #[inline]
+    fn weight(&self) -> f64 {
+        self.inv_n
+    }
 
     /// Call `f(p, x_pk)` for every sub-point in `cell`, in particle then sub-point order.
     ///
@@ -152,7 +159,7 @@ impl<'a> Subpoints<'a> {
     /// exact `Grid::cell_of` test): a particle domain clearly outside the cell is skipped,
     /// one clearly inside it has all its sub-points there.
     #[inline]
-    fn for_each_in(&self, cell: usize, mut f: impl FnMut(usize, f64)) {
+    fn for_each_in<F: FnMut(usize, f64)>(&self, cell: usize, mut f: F) {
         let grid = &self.grid;
         let cells = grid.cells;
         let from = self.cell_start[cell.saturating_sub(self.reach)];
@@ -202,36 +209,7 @@ impl Mapping for SubpointMapping {
         grid: &mut GridFields,
     ) {
         let points = Subpoints::new(self.grid, self.subpoints, particles, bins);
-        let w = points.inv_n;
-        let (mass, stress, volume) = (&particles.mass, &particles.stress, &particles.volume);
-        self.scatter.scatter(
-            basis,
-            bins,
-            [&mut grid.mass[..], &mut grid.internal_force[..]],
-            |cell, first, [m_local, f_local]| {
-                let mut shape = Shape::default();
-                points.for_each_in(cell, |p, x| {
-                    let v = volume[p] * w;
-                    basis.eval_particle(cell, x, 0.5 * v, &mut shape);
-                    let offset = shape.first - first;
-                    let (m, sv) = (mass[p] * w, stress[p] * v);
-                    for k in 0..shape.len {
-                        m_local[offset + k] += m * shape.phi[k];
-                        f_local[offset + k] += sv * shape.dphi[k];
-                    }
-                });
-            },
-        );
-        if let Some(matrix) = grid.consistent_mass.as_mut() {
-            self.scatter
-                .scatter_matrix(basis, bins.cells(), matrix, |cell, first, local| {
-                    let mut shape = Shape::default();
-                    points.for_each_in(cell, |p, x| {
-                        basis.eval_particle(cell, x, 0.5 * (volume[p] * w), &mut shape);
-                        add_outer(local, shape.first - first, &shape, mass[p] * w);
-                    });
-                });
-        }
+        map_mass_and_force(&mut self.scatter, basis, &points, particles, bins, grid);
     }
 
     fn map_momentum<B: Basis>(
@@ -242,31 +220,14 @@ impl Mapping for SubpointMapping {
         grid: &mut GridFields,
     ) {
         let points = Subpoints::new(self.grid, self.subpoints, particles, bins);
-        let w = points.inv_n;
-        let (mass, v, volume) = (&particles.mass, &particles.v, &particles.volume);
-        self.scatter.scatter(
-            basis,
-            bins,
-            [&mut grid.momentum[..]],
-            |cell, first, [p_local]| {
-                let mut shape = Shape::default();
-                points.for_each_in(cell, |p, x| {
-                    basis.eval_particle(cell, x, 0.5 * (volume[p] * w), &mut shape);
-                    let offset = shape.first - first;
-                    let mv = mass[p] * w * v[p];
-                    for k in 0..shape.len {
-                        p_local[offset + k] += mv * shape.phi[k];
-                    }
-                });
-            },
-        );
+        map_momentum(&mut self.scatter, basis, &points, particles, bins, grid);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::{DdmpmBasis, LinearBasis, ParticleQuadrature};
+    use crate::grid::{DdmpmBasis, LinearBasis, ParticleQuadrature, Shape};
     use crate::linalg::CsrMatrix;
     use crate::mapping::DirectMapping;
     use proptest::prelude::*;

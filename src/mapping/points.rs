@@ -1,0 +1,128 @@
+//! Particle quadrature at points (SPEC §2 steps 1 and 4, §3.3): the grid vectors and the
+//! consistent mass matrix as sums over quadrature points that carry a fraction `w` of a
+//! particle (the particles themselves, `w = 1`, for standard MPM; `N` sub-points each,
+//! `w = 1/N`, for DDMPM with sub-points):
+//!
+//! ```text
+//! m_i     = sum_points w m_p phi_i(x)
+//! f_int_i = sum_points sigma_p dphi_i(x) w V_p
+//! p_i     = sum_points w m_p v_p phi_i(x)
+//! M^C_ij  = sum_points w m_p phi_i(x) phi_j(x)
+//! ```
+//!
+//! A [`PointSet`] lists the points lying in each cell; the functions here evaluate the
+//! basis there (`Basis::eval_particle` with half-length `w V_p / 2`) and scatter through
+//! [`CellScatter`], so every point mapping is deterministic for any thread count.
+
+use super::scatter::add_outer;
+use super::{CellScatter, GridFields};
+use crate::grid::{Basis, Shape};
+use crate::particles::{CellBins, Particles};
+
+/// Quadrature points of a particle mapping, found cell by cell.
+pub trait PointSet: Sync {
+    /// The fraction `w` of its particle that each point carries.
+    fn weight(&self) -> f64;
+
+    /// Call `f(p, x)` for every point of particle `p` at `x` that lies in `cell`, in a
+    /// fixed order.
+    fn for_each_in<F: FnMut(usize, f64)>(&self, cell: usize, f: F);
+}
+
+/// The particles themselves, one point each (standard MPM).
+pub struct ParticlePoints<'a> {
+    x: &'a [f64],
+    bins: &'a CellBins,
+}
+
+impl<'a> ParticlePoints<'a> {
+    pub fn new(particles: &'a Particles, bins: &'a CellBins) -> Self {
+        Self {
+            x: &particles.x,
+            bins,
+        }
+    }
+}
+
+impl PointSet for ParticlePoints<'_> {
+    #[inline]
+    fn weight(&self) -> f64 {
+        1.0
+    }
+
+    #[inline]
+    fn for_each_in<F: FnMut(usize, f64)>(&self, cell: usize, mut f: F) {
+        for p in self.bins.range(cell) {
+            f(p, self.x[p]);
+        }
+    }
+}
+
+/// `m`, `f_int` and (when present) `M^C` by quadrature at `points`.
+pub fn map_mass_and_force<B: Basis, P: PointSet>(
+    scatter: &mut CellScatter,
+    basis: &B,
+    points: &P,
+    particles: &Particles,
+    bins: &CellBins,
+    grid: &mut GridFields,
+) {
+    let w = points.weight();
+    let (mass, stress, volume) = (&particles.mass, &particles.stress, &particles.volume);
+    scatter.scatter(
+        basis,
+        bins,
+        [&mut grid.mass[..], &mut grid.internal_force[..]],
+        |cell, first, [m_local, f_local]| {
+            let mut shape = Shape::default();
+            points.for_each_in(cell, |p, x| {
+                let v = volume[p] * w;
+                basis.eval_particle(cell, x, 0.5 * v, &mut shape);
+                let offset = shape.first - first;
+                let (m, sv) = (mass[p] * w, stress[p] * v);
+                for k in 0..shape.len {
+                    m_local[offset + k] += m * shape.phi[k];
+                    f_local[offset + k] += sv * shape.dphi[k];
+                }
+            });
+        },
+    );
+    if let Some(matrix) = grid.consistent_mass.as_mut() {
+        scatter.scatter_matrix(basis, bins.cells(), matrix, |cell, first, local| {
+            let mut shape = Shape::default();
+            points.for_each_in(cell, |p, x| {
+                basis.eval_particle(cell, x, 0.5 * (volume[p] * w), &mut shape);
+                add_outer(local, shape.first - first, &shape, mass[p] * w);
+            });
+        });
+    }
+}
+
+/// `p` by quadrature at `points` from the current particle velocities.
+pub fn map_momentum<B: Basis, P: PointSet>(
+    scatter: &mut CellScatter,
+    basis: &B,
+    points: &P,
+    particles: &Particles,
+    bins: &CellBins,
+    grid: &mut GridFields,
+) {
+    let w = points.weight();
+    let (mass, v, volume) = (&particles.mass, &particles.v, &particles.volume);
+    scatter.scatter(
+        basis,
+        bins,
+        [&mut grid.momentum[..]],
+        |cell, first, [p_local]| {
+            let mut shape = Shape::default();
+            points.for_each_in(cell, |p, x| {
+                basis.eval_particle(cell, x, 0.5 * (volume[p] * w), &mut shape);
+                let offset = shape.first - first;
+                let mv = mass[p] * w * v[p];
+                for k in 0..shape.len {
+                    p_local[offset + k] += mv * shape.phi[k];
+                }
+            });
+        },
+    );
+}
