@@ -37,7 +37,7 @@ pub enum Error {
     },
     /// The time step is above the stability limit (override with `--force`).
     #[error(
-        "`time.dt` = {dt:e} exceeds the stability limit {limit:.3e} s (2 / omega_max of the lumped system, h / c for linear hats); use --force to run anyway"
+        "`time.dt` = {dt:e} exceeds the stability limit {limit:.3e} s (2 / omega_max of the mass system: h / c for linear hats with lumped mass, h / (sqrt(3) c) with consistent mass); use --force to run anyway"
     )]
     UnstableTimeStep { dt: f64, limit: f64 },
     /// A NaN or infinite value appeared during the run.

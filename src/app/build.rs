@@ -4,13 +4,13 @@
 //! the only place that matches on `method.basis`, `method.reconstruction` and
 //! `method.subpoints`.
 
-use crate::config::{BasisKind, ReconstructionKind, Scenario, SolverKind};
+use crate::config::{BasisKind, MassKind, ReconstructionKind, Scenario, SolverKind};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::{BandedCholesky, ConjugateGradient, LinearSolver};
 use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping, TlsMapping};
 use crate::particles::Particles;
-use crate::physics::stability::critical_time_step;
+use crate::physics::stability::{critical_time_step, critical_time_step_consistent};
 use crate::physics::step::TimeStepper;
 use crate::physics::{Boundary, MassSystem, Material, Simulation, Stepper};
 use crate::problems::{self, Problem};
@@ -175,7 +175,15 @@ fn stepper<B: Basis + 'static, M: Mapping + 'static>(
         ),
         particles,
     );
-    let limit = critical_time_step(&stepper.basis, particles, parts.material.wave_modulus());
+    let modulus = parts.material.wave_modulus();
+    let mut limit = critical_time_step(&stepper.basis, particles, modulus);
+    if scenario.method.acceleration_mass() == MassKind::Consistent {
+        limit = limit.min(critical_time_step_consistent(
+            &stepper.basis,
+            particles,
+            modulus,
+        ));
+    }
     if scenario.time.dt > limit && !parts.force {
         return Err(Error::UnstableTimeStep {
             dt: scenario.time.dt,
