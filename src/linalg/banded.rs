@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 pub struct BandedCholesky {
     bandwidth: usize,
     factor: Vec<f64>,
+    /// `A x` for the residual of the last solve.
+    product: Vec<f64>,
 }
 
 impl BandedCholesky {
@@ -120,10 +122,10 @@ impl LinearSolver for BandedCholesky {
         }
         self.factor(a)?;
         self.solve_factored(b, x);
-        let mut r = vec![0.0; b.len()];
-        a.mul_vec(x, &mut r);
+        self.product.resize(b.len(), 0.0);
+        a.mul_vec(x, &mut self.product);
         let (mut rr, mut bb) = (0.0, 0.0);
-        for (ri, bi) in r.iter().zip(b) {
+        for (ri, bi) in self.product.iter().zip(b) {
             rr += (bi - ri) * (bi - ri);
             bb += bi * bi;
         }

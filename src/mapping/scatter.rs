@@ -72,20 +72,13 @@ impl CellScatter {
     {
         let width = basis.max_window();
         let stride = F * width;
-        self.buffer.clear();
-        self.buffer.resize(cells * stride, 0.0);
-        self.buffer
-            .par_chunks_mut(stride)
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .for_each(|(cell, chunk)| {
-                let mut local = [[0.0; MAX_SUPPORT]; F];
-                let (first, _) = basis.cell_window(cell);
-                kernel(cell, first, &mut local);
-                for (row, out) in local.iter().zip(chunk.chunks_exact_mut(width)) {
-                    out.copy_from_slice(&row[..width]);
-                }
-            });
+        self.fill_cells(basis, cells, stride, |cell, first, chunk| {
+            let mut local = [[0.0; MAX_SUPPORT]; F];
+            kernel(cell, first, &mut local);
+            for (row, out) in local.iter().zip(chunk.chunks_exact_mut(width)) {
+                out.copy_from_slice(&row[..width]);
+            }
+        });
         for out in outputs.iter_mut() {
             out.fill(0.0);
         }
@@ -115,20 +108,13 @@ impl CellScatter {
     {
         let width = basis.max_window();
         let stride = width * width;
-        self.buffer.clear();
-        self.buffer.resize(cells * stride, 0.0);
-        self.buffer
-            .par_chunks_mut(stride)
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .for_each(|(cell, chunk)| {
-                let mut local = [0.0; MAX_SUPPORT * MAX_SUPPORT];
-                let (first, _) = basis.cell_window(cell);
-                kernel(cell, first, &mut local);
-                for (r, out) in chunk.chunks_exact_mut(width).enumerate() {
-                    out.copy_from_slice(&local[r * MAX_SUPPORT..r * MAX_SUPPORT + width]);
-                }
-            });
+        self.fill_cells(basis, cells, stride, |cell, first, chunk| {
+            let mut local = [0.0; MAX_SUPPORT * MAX_SUPPORT];
+            kernel(cell, first, &mut local);
+            for (r, out) in chunk.chunks_exact_mut(width).enumerate() {
+                out.copy_from_slice(&local[r * MAX_SUPPORT..r * MAX_SUPPORT + width]);
+            }
+        });
         matrix.values.fill(0.0);
         for (cell, chunk) in self.buffer.chunks_exact(stride).enumerate() {
             let (first, len) = basis.cell_window(cell);
@@ -143,5 +129,21 @@ impl CellScatter {
                 }
             }
         }
+    }
+
+    /// Resize the buffer to `cells` chunks of `stride` values and fill chunk `cell` by
+    /// `fill(cell, window_first, chunk)`, in parallel.
+    fn fill_cells<B, G>(&mut self, basis: &B, cells: usize, stride: usize, fill: G)
+    where
+        B: Basis,
+        G: Fn(usize, usize, &mut [f64]) + Sync,
+    {
+        self.buffer.clear();
+        self.buffer.resize(cells * stride, 0.0);
+        self.buffer
+            .par_chunks_mut(stride)
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, chunk)| fill(cell, basis.cell_window(cell).0, chunk));
     }
 }

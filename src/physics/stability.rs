@@ -21,15 +21,21 @@ use crate::particles::Particles;
 /// Power iterations of [`critical_time_step_consistent`].
 const POWER_ITERATIONS: usize = 300;
 
-/// `2 / sqrt(max_i sum_j |K_ij| / m_i)` for `particles` (whose `cell` is current) and
-/// elastic modulus `modulus`; `f64::INFINITY` if there is no stiffness at all.
-pub fn critical_time_step<B: Basis>(basis: &B, particles: &Particles, modulus: f64) -> f64 {
+/// The particle-quadrature operators of the initial configuration: stiffness
+/// `K_ij = sum_p V_p E dphi_i dphi_j`, lumped mass `m_i = sum_p m_p phi_i` and consistent
+/// mass `M^C_ij = sum_p m_p phi_i phi_j` (band pattern of the basis).
+struct ParticleOperators {
+    stiffness: CsrMatrix,
+    lumped: Vec<f64>,
+    consistent: CsrMatrix,
+}
+
+fn assemble<B: Basis>(basis: &B, particles: &Particles, modulus: f64) -> ParticleOperators {
     let n = basis.num_dofs();
-    let width = basis.max_window();
-    let band = 2 * width - 1;
-    // stiffness[i * band + (j + width - 1 - i)] = K_ij for |i - j| < width.
-    let mut stiffness = vec![0.0; n * band];
-    let mut mass = vec![0.0; n];
+    let bandwidth = basis.max_window() - 1;
+    let mut stiffness = CsrMatrix::band(n, bandwidth);
+    let mut consistent = CsrMatrix::band(n, bandwidth);
+    let mut lumped = vec![0.0; n];
     let mut shape = Shape::default();
     for p in 0..particles.len() {
         basis.eval_particle(
@@ -41,17 +47,34 @@ pub fn critical_time_step<B: Basis>(basis: &B, particles: &Particles, modulus: f
         let k = particles.volume[p] * modulus;
         for a in 0..shape.len {
             let i = shape.first + a;
-            mass[i] += particles.mass[p] * shape.phi[a];
-            let row = &mut stiffness[i * band..(i + 1) * band];
+            lumped[i] += particles.mass[p] * shape.phi[a];
             for b in 0..shape.len {
-                row[b + width - 1 - a] += k * shape.dphi[a] * shape.dphi[b];
+                let index = stiffness.band_index(i, shape.first + b);
+                stiffness.values[index] += k * shape.dphi[a] * shape.dphi[b];
+                consistent.values[index] += particles.mass[p] * shape.phi[a] * shape.phi[b];
             }
         }
     }
+    ParticleOperators {
+        stiffness,
+        lumped,
+        consistent,
+    }
+}
+
+/// `2 / sqrt(max_i sum_j |K_ij| / m_i)` for `particles` (whose `cell` is current) and
+/// elastic modulus `modulus`; `f64::INFINITY` if there is no stiffness at all.
+pub fn critical_time_step<B: Basis>(basis: &B, particles: &Particles, modulus: f64) -> f64 {
+    let ParticleOperators {
+        stiffness,
+        lumped: mass,
+        ..
+    } = assemble(basis, particles, modulus);
+    let n = mass.len();
     let omega_squared = (0..n)
         .filter(|&i| mass[i] > 0.0)
         .map(|i| {
-            let row: f64 = stiffness[i * band..(i + 1) * band]
+            let row: f64 = stiffness.values[stiffness.row_start[i]..stiffness.row_start[i + 1]]
                 .iter()
                 .map(|k| k.abs())
                 .sum();
@@ -74,28 +97,12 @@ pub fn critical_time_step_consistent<B: Basis>(
     particles: &Particles,
     modulus: f64,
 ) -> f64 {
-    let n = basis.num_dofs();
-    let bandwidth = basis.max_window() - 1;
-    let mut stiffness = CsrMatrix::band(n, bandwidth);
-    let mut mass = CsrMatrix::band(n, bandwidth);
-    let mut shape = Shape::default();
-    for p in 0..particles.len() {
-        basis.eval_particle(
-            particles.cell[p],
-            particles.x[p],
-            0.5 * particles.volume[p],
-            &mut shape,
-        );
-        let k = particles.volume[p] * modulus;
-        for a in 0..shape.len {
-            let i = shape.first + a;
-            for b in 0..shape.len {
-                let index = stiffness.band_index(i, shape.first + b);
-                stiffness.values[index] += k * shape.dphi[a] * shape.dphi[b];
-                mass.values[index] += particles.mass[p] * shape.phi[a] * shape.phi[b];
-            }
-        }
-    }
+    let ParticleOperators {
+        mut stiffness,
+        consistent: mut mass,
+        ..
+    } = assemble(basis, particles, modulus);
+    let n = mass.rows;
     let active: Vec<bool> = mass.diagonal().iter().map(|&m| m > 0.0).collect();
     mass.constrain(&active);
     for i in 0..n {
