@@ -96,6 +96,28 @@ impl GaussPoints {
     }
 }
 
+impl GaussPoints {
+    /// Call `f(x_g, w_g, shape)` with the basis evaluated at every point of the active part
+    /// of `cell` (nothing for an inactive cell).
+    #[inline]
+    pub fn for_each_shape<B: Basis>(
+        &self,
+        basis: &B,
+        domains: &CellDomains,
+        cell: usize,
+        mut f: impl FnMut(f64, f64, &Shape),
+    ) {
+        if !domains.is_active(cell) {
+            return;
+        }
+        let mut shape = Shape::default();
+        self.for_each(domains.lo[cell], domains.hi[cell], |x, w| {
+            basis.eval(cell, x, &mut shape);
+            f(x, w, &shape);
+        });
+    }
+}
+
 /// `f_int`, the lumped mass and (when `fields.consistent_mass` is present) `M^C` from the
 /// reconstructed `stress(cell, x)` and `density(cell, x)`.
 #[allow(clippy::too_many_arguments)]
@@ -118,12 +140,7 @@ pub fn integrate_mass_and_force<B, S, R>(
         cells,
         [&mut fields.mass[..], &mut fields.internal_force[..]],
         |cell, first, [m_local, f_local]| {
-            if !domains.is_active(cell) {
-                return;
-            }
-            let mut shape = Shape::default();
-            points.for_each(domains.lo[cell], domains.hi[cell], |x, w| {
-                basis.eval(cell, x, &mut shape);
+            points.for_each_shape(basis, domains, cell, |x, w, shape| {
                 let offset = shape.first - first;
                 let (rw, sw) = (density(cell, x) * w, stress(cell, x) * w);
                 for k in 0..shape.len {
@@ -135,13 +152,8 @@ pub fn integrate_mass_and_force<B, S, R>(
     );
     if let Some(matrix) = fields.consistent_mass.as_mut() {
         scatter.scatter_matrix(basis, cells, matrix, |cell, first, local| {
-            if !domains.is_active(cell) {
-                return;
-            }
-            let mut shape = Shape::default();
-            points.for_each(domains.lo[cell], domains.hi[cell], |x, w| {
-                basis.eval(cell, x, &mut shape);
-                add_outer(local, shape.first - first, &shape, density(cell, x) * w);
+            points.for_each_shape(basis, domains, cell, |x, w, shape| {
+                add_outer(local, shape.first - first, shape, density(cell, x) * w);
             });
         });
     }
@@ -165,12 +177,7 @@ pub fn integrate_momentum<B, P>(
         cells,
         [&mut fields.momentum[..]],
         |cell, first, [p_local]| {
-            if !domains.is_active(cell) {
-                return;
-            }
-            let mut shape = Shape::default();
-            points.for_each(domains.lo[cell], domains.hi[cell], |x, w| {
-                basis.eval(cell, x, &mut shape);
+            points.for_each_shape(basis, domains, cell, |x, w, shape| {
                 let offset = shape.first - first;
                 let pw = momentum(cell, x) * w;
                 for k in 0..shape.len {
