@@ -123,6 +123,232 @@ impl CsrMatrix {
     }
 }
 
+
+impl CsrMatrix {
+    /// The `n x n` identity.
+    pub fn identity(n: usize) -> Self {
+        Self {
+            rows: n,
+            cols: n,
+            row_start: (0..=n).collect(),
+            col_index: (0..n).collect(),
+            values: vec![1.0; n],
+        }
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Whether `other` has the same shape and sparsity pattern (so a symbolic
+    /// factorisation or a hierarchy built for one serves the other).
+    pub fn same_pattern(&self, other: &CsrMatrix) -> bool {
+        self.rows == other.rows
+            && self.cols == other.cols
+            && self.row_start == other.row_start
+            && self.col_index == other.col_index
+    }
+
+    /// `y = A x`, rows split over the rayon pool in fixed blocks. Every `y_i` is summed
+    /// in the same order as by [`CsrMatrix::mul_vec`], so the result is bitwise the same
+    /// for any thread count.
+    pub fn par_mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        use rayon::prelude::*;
+        const BLOCK: usize = 4096;
+        if self.rows < 2 * BLOCK {
+            self.mul_vec(x, y);
+            return;
+        }
+        y[..self.rows]
+            .par_chunks_mut(BLOCK)
+            .enumerate()
+            .for_each(|(block, y_block)| {
+                let first = block * BLOCK;
+                for (offset, yi) in y_block.iter_mut().enumerate() {
+                    let range = self.row_start[first + offset]..self.row_start[first + offset + 1];
+                    *yi = self.col_index[range.clone()]
+                        .iter()
+                        .zip(&self.values[range])
+                        .map(|(&j, &a)| a * x[j])
+                        .sum();
+                }
+            });
+    }
+
+    /// `y = A^T x`.
+    pub fn mul_transpose_vec(&self, x: &[f64], y: &mut [f64]) {
+        y[..self.cols].fill(0.0);
+        for (i, &xi) in x.iter().enumerate().take(self.rows) {
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                y[self.col_index[k]] += self.values[k] * xi;
+            }
+        }
+    }
+
+    /// Row sums `sum_j A_ij`: the row-sum lumped diagonal of a mass matrix.
+    pub fn row_sums(&self) -> Vec<f64> {
+        (0..self.rows)
+            .map(|i| self.values[self.row_start[i]..self.row_start[i + 1]].iter().sum())
+            .collect()
+    }
+
+    /// `A^T`.
+    pub fn transpose(&self) -> CsrMatrix {
+        let mut count = vec![0usize; self.cols + 1];
+        for &j in &self.col_index {
+            count[j + 1] += 1;
+        }
+        for j in 0..self.cols {
+            count[j + 1] += count[j];
+        }
+        let row_start = count.clone();
+        let mut next = count;
+        let mut col_index = vec![0; self.nnz()];
+        let mut values = vec![0.0; self.nnz()];
+        for i in 0..self.rows {
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                let j = self.col_index[k];
+                col_index[next[j]] = i;
+                values[next[j]] = self.values[k];
+                next[j] += 1;
+            }
+        }
+        CsrMatrix {
+            rows: self.cols,
+            cols: self.rows,
+            row_start,
+            col_index,
+            values,
+        }
+    }
+
+    /// The sparse product `A B` (columns sorted; explicit zeros of the product kept so the
+    /// pattern depends on the patterns of `A` and `B` only).
+    pub fn matmul(&self, other: &CsrMatrix) -> CsrMatrix {
+        assert_eq!(self.cols, other.rows, "matmul: inner dimensions differ");
+        let mut row_start = Vec::with_capacity(self.rows + 1);
+        let mut col_index = Vec::new();
+        let mut values = Vec::new();
+        let mut accumulator = vec![0.0; other.cols];
+        let mut marker = vec![usize::MAX; other.cols];
+        let mut row_columns: Vec<usize> = Vec::new();
+        row_start.push(0);
+        for i in 0..self.rows {
+            row_columns.clear();
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                let (l, a) = (self.col_index[k], self.values[k]);
+                for m in other.row_start[l]..other.row_start[l + 1] {
+                    let j = other.col_index[m];
+                    if marker[j] != i {
+                        marker[j] = i;
+                        accumulator[j] = 0.0;
+                        row_columns.push(j);
+                    }
+                    accumulator[j] += a * other.values[m];
+                }
+            }
+            row_columns.sort_unstable();
+            for &j in &row_columns {
+                col_index.push(j);
+                values.push(accumulator[j]);
+            }
+            row_start.push(col_index.len());
+        }
+        CsrMatrix {
+            rows: self.rows,
+            cols: other.cols,
+            row_start,
+            col_index,
+            values,
+        }
+    }
+
+    /// The Kronecker product `A (x) B`: entry `(i_a n_b + i_b, j_a m_b + j_b)` is
+    /// `A_{i_a j_a} B_{i_b j_b}`. With `B` acting on the fast (x) index, a 2D tensor-product
+    /// mass matrix on DOFs `i = i_y n_x + i_x` is `M_y (x) M_x`.
+    ///
+    /// ```
+    /// use tlsmpm::linalg::CsrMatrix;
+    /// let a = CsrMatrix::from_triplets(2, 2, &[(0, 0, 1.0), (0, 1, 2.0), (1, 1, 3.0)]);
+    /// let k = a.kron(&CsrMatrix::identity(2));
+    /// assert_eq!((k.rows, k.nnz()), (4, 6));
+    /// assert_eq!(k.values, vec![1.0, 2.0, 1.0, 2.0, 3.0, 3.0]);
+    /// ```
+    pub fn kron(&self, other: &CsrMatrix) -> CsrMatrix {
+        let rows = self.rows * other.rows;
+        let cols = self.cols * other.cols;
+        let mut row_start = Vec::with_capacity(rows + 1);
+        let mut col_index = Vec::with_capacity(self.nnz() * other.nnz());
+        let mut values = Vec::with_capacity(self.nnz() * other.nnz());
+        row_start.push(0);
+        for ia in 0..self.rows {
+            for ib in 0..other.rows {
+                for ka in self.row_start[ia]..self.row_start[ia + 1] {
+                    let (ja, a) = (self.col_index[ka], self.values[ka]);
+                    for kb in other.row_start[ib]..other.row_start[ib + 1] {
+                        col_index.push(ja * other.cols + other.col_index[kb]);
+                        values.push(a * other.values[kb]);
+                    }
+                }
+                row_start.push(col_index.len());
+            }
+        }
+        CsrMatrix {
+            rows,
+            cols,
+            row_start,
+            col_index,
+            values,
+        }
+    }
+
+    /// The rows with `keep_rows[i]` and the columns with `keep_cols[j]`, renumbered in
+    /// order (boundary DOFs eliminated by dropping them).
+    pub fn submatrix(&self, keep_rows: &[bool], keep_cols: &[bool]) -> CsrMatrix {
+        let mut new_col = vec![usize::MAX; self.cols];
+        let mut cols = 0;
+        for (j, &keep) in keep_cols.iter().enumerate().take(self.cols) {
+            if keep {
+                new_col[j] = cols;
+                cols += 1;
+            }
+        }
+        let mut row_start = vec![0];
+        let mut col_index = Vec::new();
+        let mut values = Vec::new();
+        for (i, &keep) in keep_rows.iter().enumerate().take(self.rows) {
+            if !keep {
+                continue;
+            }
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                let j = new_col[self.col_index[k]];
+                if j != usize::MAX {
+                    col_index.push(j);
+                    values.push(self.values[k]);
+                }
+            }
+            row_start.push(col_index.len());
+        }
+        CsrMatrix {
+            rows: row_start.len() - 1,
+            cols,
+            row_start,
+            col_index,
+            values,
+        }
+    }
+
+    /// Scale row `i` by `row_scale[i]`.
+    pub fn scale_rows(&mut self, row_scale: &[f64]) {
+        for (i, &s) in row_scale.iter().enumerate().take(self.rows) {
+            for v in &mut self.values[self.row_start[i]..self.row_start[i + 1]] {
+                *v *= s;
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -136,5 +362,63 @@ mod tests {
         a.mul_vec(&[1.0, 1.0], &mut y);
         assert_eq!(y, [4.0, 3.0]);
         assert_eq!(a.diagonal(), vec![2.0, 3.0]);
+    }
+
+    fn sample() -> CsrMatrix {
+        CsrMatrix::from_triplets(
+            3,
+            2,
+            &[(0, 0, 1.0), (0, 1, 2.0), (1, 1, 3.0), (2, 0, 4.0), (2, 1, 5.0)],
+        )
+    }
+
+    fn dense(a: &CsrMatrix) -> Vec<Vec<f64>> {
+        let mut d = vec![vec![0.0; a.cols]; a.rows];
+        for i in 0..a.rows {
+            for k in a.row_start[i]..a.row_start[i + 1] {
+                d[i][a.col_index[k]] += a.values[k];
+            }
+        }
+        d
+    }
+
+    #[test]
+    fn transpose_matmul_kron_and_submatrix_agree_with_dense_algebra() {
+        let a = sample();
+        let at = a.transpose();
+        assert_eq!(dense(&at), vec![vec![1.0, 0.0, 4.0], vec![2.0, 3.0, 5.0]]);
+        let ata = at.matmul(&a);
+        assert_eq!(dense(&ata), vec![vec![17.0, 22.0], vec![22.0, 38.0]]);
+        let k = at.kron(&a);
+        let (da, dat, dk) = (dense(&a), dense(&at), dense(&k));
+        for ia in 0..2 {
+            for ja in 0..3 {
+                for ib in 0..3 {
+                    for jb in 0..2 {
+                        assert_eq!(dk[ia * 3 + ib][ja * 2 + jb], dat[ia][ja] * da[ib][jb]);
+                    }
+                }
+            }
+        }
+        let s = a.submatrix(&[true, false, true], &[false, true]);
+        assert_eq!(dense(&s), vec![vec![2.0], vec![5.0]]);
+        let mut y = [0.0; 2];
+        a.mul_transpose_vec(&[1.0, 1.0, 1.0], &mut y);
+        assert_eq!(y, [5.0, 10.0]);
+        assert_eq!(a.row_sums(), vec![3.0, 3.0, 9.0]);
+    }
+
+    #[test]
+    fn parallel_product_is_bitwise_the_serial_one() {
+        let n = 20_000;
+        let mut a = CsrMatrix::band(n, 2);
+        for (k, v) in a.values.iter_mut().enumerate() {
+            *v = 1.0 / (1.0 + k as f64);
+        }
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.1).sin()).collect();
+        let (mut serial, mut parallel) = (vec![0.0; n], vec![0.0; n]);
+        a.mul_vec(&x, &mut serial);
+        a.par_mul_vec(&x, &mut parallel);
+        assert_eq!(serial, parallel);
     }
 }

@@ -6,6 +6,7 @@
 //! initial content of `x` is the starting guess (warm start from the previous step), and
 //! every call returns [`SolveStats`] instead of panicking on breakdown.
 
+pub mod assembly;
 pub mod banded;
 pub mod cg;
 pub mod csr;
