@@ -12,7 +12,7 @@ pub mod cg;
 pub mod csr;
 
 pub use banded::BandedCholesky;
-pub use cg::ConjugateGradient;
+pub use cg::{ConjugateGradient, Identity, Jacobi, JacobiCg, Pcg, Preconditioner};
 pub use csr::CsrMatrix;
 
 use crate::error::Result;
