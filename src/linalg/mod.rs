@@ -10,10 +10,12 @@ pub mod assembly;
 pub mod banded;
 pub mod cg;
 pub mod csr;
+pub mod kron;
 
 pub use banded::BandedCholesky;
 pub use cg::{ConjugateGradient, Identity, Jacobi, JacobiCg, Pcg, Preconditioner};
 pub use csr::CsrMatrix;
+pub use kron::{KroneckerFactors, KroneckerPreconditioner};
 
 use crate::error::Result;
 
