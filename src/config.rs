@@ -330,23 +330,71 @@ impl MethodConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum SolverKind {
+    /// Plain conjugate gradients.
     Cg,
+    /// Jacobi-preconditioned CG.
     Pcg,
+    /// p-multigrid V-cycles over the B-spline orders `p, p-1, ..., 1`.
     Pmg,
+    /// CG preconditioned by one symmetric p-multigrid V-cycle.
+    #[serde(alias = "pmg-cg")]
+    PmgCg,
+    /// Sparse Cholesky (faer), symbolic factorisation reused while the pattern holds.
     Direct,
     /// Banded Cholesky: exact and `O(N p^2)` in 1D, the default.
     #[default]
     Banded,
+    /// CG preconditioned by the diagonally scaled Kronecker (constant-density) inverse.
+    Kron,
+}
+
+impl SolverKind {
+    /// Every kind, in the order of the tables.
+    pub const ALL: [SolverKind; 7] = [
+        SolverKind::Cg,
+        SolverKind::Pcg,
+        SolverKind::Pmg,
+        SolverKind::PmgCg,
+        SolverKind::Direct,
+        SolverKind::Banded,
+        SolverKind::Kron,
+    ];
+
+    /// The scenario spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Cg => "cg",
+            SolverKind::Pcg => "pcg",
+            SolverKind::Pmg => "pmg",
+            SolverKind::PmgCg => "pmg_cg",
+            SolverKind::Direct => "direct",
+            SolverKind::Banded => "banded",
+            SolverKind::Kron => "kron",
+        }
+    }
+
+    /// Parse a scenario spelling (`pmg-cg` is accepted for `pmg_cg`).
+    pub fn parse(name: &str) -> Option<Self> {
+        let name = name.trim().replace('-', "_");
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
 }
 
 /// Smoothers of the p-multigrid V-cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Smoother {
+    /// Damped Jacobi.
     Jacobi,
+    /// Forward Gauss–Seidel.
     #[default]
     GaussSeidel,
+    /// Forward then backward Gauss–Seidel.
+    SymmetricGaussSeidel,
 }
+
+/// Most smoothing sweeps per V-cycle (`pre_smooth + post_smooth`).
+pub const MAX_SMOOTHING_SWEEPS: usize = 1000;
 
 /// `[solver]`: used when `method.mass = "consistent"`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -736,15 +784,26 @@ impl Scenario {
             ReconstructionKind::Mls => return not_yet("method.reconstruction", "mls"),
             ReconstructionKind::Imls => return not_yet("method.reconstruction", "imls"),
         }
-        let consistent = self.method.mass == MassKind::Consistent
-            || self.method.acceleration_mass() == MassKind::Consistent;
-        if consistent {
-            match self.solver.kind {
-                SolverKind::Cg | SolverKind::Banded => {}
-                SolverKind::Pcg => return not_yet("solver.kind", "pcg"),
-                SolverKind::Pmg => return not_yet("solver.kind", "pmg"),
-                SolverKind::Direct => return not_yet("solver.kind", "direct"),
+        if matches!(self.solver.kind, SolverKind::Pmg | SolverKind::PmgCg) {
+            let sweeps = self.solver.pre_smooth + self.solver.post_smooth;
+            if sweeps == 0 || sweeps > MAX_SMOOTHING_SWEEPS {
+                return Err(Error::invalid(
+                    "solver.pre_smooth",
+                    self.solver.pre_smooth,
+                    format!(
+                        "pre_smooth + post_smooth (= {sweeps}) must be between 1 and \
+                         {MAX_SMOOTHING_SWEEPS} for solver.kind = \"{}\"",
+                        self.solver.kind.name()
+                    ),
+                ));
             }
+        }
+        if self.solver.tolerance >= 1.0 {
+            return Err(Error::invalid(
+                "solver.tolerance",
+                self.solver.tolerance,
+                "a relative residual below 1 is needed",
+            ));
         }
         if self.method.gauss_points > crate::numerics::gauss::MAX_POINTS
             || self.method.gauss_points == 1

@@ -4,10 +4,12 @@
 //! the only place that matches on `method.basis`, `method.reconstruction` and
 //! `method.subpoints`.
 
-use crate::config::{BasisKind, MassKind, ReconstructionKind, Scenario, SolverKind};
+use crate::config::{BasisKind, MassKind, ReconstructionKind, Scenario};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
-use crate::linalg::{BandedCholesky, ConjugateGradient, LinearSolver};
+use crate::app::solvers::{build_solver, SolverGeometry};
+use crate::linalg::assembly::SplineSpace;
+use crate::linalg::LinearSolver;
 use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping, TlsMapping};
 use crate::particles::Particles;
 use crate::physics::stability::{critical_time_step, critical_time_step_consistent};
@@ -101,18 +103,21 @@ pub fn gauss_points(scenario: &Scenario) -> usize {
     }
 }
 
-/// The solver of consistent mass systems (`solver.kind`).
-fn mass_solver(scenario: &Scenario) -> Result<Box<dyn LinearSolver>> {
-    let solver = &scenario.solver;
-    match solver.kind {
-        SolverKind::Banded => Ok(Box::new(BandedCholesky::new())),
-        SolverKind::Cg => Ok(Box::new(ConjugateGradient::new(solver.tolerance, 10_000))),
-        other => Err(Error::invalid(
-            "solver.kind",
-            format!("{other:?}"),
-            "not available in this version of tlsmpm",
-        )),
-    }
+/// The solver of consistent mass systems (`solver.kind`) on the grid's DOFs: B-splines of
+/// `method.order` for the B-spline basis, linear hats (order 1) for the others.
+fn mass_solver(scenario: &Scenario, grid: &Grid) -> Result<Box<dyn LinearSolver>> {
+    let order = match scenario.method.basis {
+        BasisKind::Bspline => scenario.method.order,
+        _ => 1,
+    };
+    let space = SplineSpace::new(order, grid.cells, grid.length).ok_or_else(|| {
+        Error::invalid("method.order", order, "no B-spline space of this order")
+    })?;
+    let geometry = SolverGeometry {
+        directions: vec![space],
+        boundary_dropped: false,
+    };
+    build_solver(&scenario.solver, &geometry)
 }
 
 /// Dispatch on `method.basis` for a given mapping.
@@ -171,7 +176,7 @@ fn stepper<B: Basis + 'static, M: Mapping + 'static>(
         MassSystem::new(
             scenario.method.acceleration_mass(),
             scenario.method.mass,
-            mass_solver(scenario)?,
+            mass_solver(scenario, &parts.grid)?,
         ),
         particles,
     );
