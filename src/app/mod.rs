@@ -7,6 +7,7 @@ pub mod build;
 pub mod builtin;
 pub mod reconstruct;
 pub mod run;
+pub mod solver_study;
 pub mod solvers;
 pub mod study;
 

@@ -81,7 +81,8 @@ pub fn run(
     outcome.map(|()| summary)
 }
 
-fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+/// A rayon pool of `threads` workers (`None`: one per core); 0 is an input error.
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     if threads == Some(0) {
         return Err(Error::invalid("--threads", 0, "must be at least 1"));
     }

@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use tlsmpm::app::{self, builtin, RunOptions};
-use tlsmpm::config::{self, Scenario};
+use tlsmpm::app::solver_study::{SolverStudyOptions, StudyDensity};
+use tlsmpm::config::{self, Scenario, Smoother, SolverConfig, SolverKind};
 
 #[derive(Parser)]
 #[command(
@@ -41,6 +42,47 @@ enum Command {
     Reconstruct {
         /// Output directory for reconstruction.csv and reconstruction.svg.
         #[arg(long, default_value = "out/reconstruction")]
+        out: PathBuf,
+    },
+    /// Consistent-mass solver study (SPEC 5.1): condition numbers, iterations and time per
+    /// solver for B-spline mass matrices on the unit interval or square.
+    SolverStudy {
+        /// Dimension: 1 (banded matrices) or 2 (tensor product).
+        #[arg(long, default_value_t = 2)]
+        dim: usize,
+        /// B-spline orders, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "1,2,3,4,5")]
+        orders: Vec<usize>,
+        /// Spans per direction (1/h), comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "8,16,32,64")]
+        cells: Vec<usize>,
+        /// Solvers, comma separated: cg, pcg, pmg, pmg_cg, direct, banded, kron
+        /// [default: all; banded only in 1D].
+        #[arg(long, value_delimiter = ',')]
+        solvers: Vec<String>,
+        /// Relative residual to reach.
+        #[arg(long, default_value_t = 1e-8)]
+        tolerance: f64,
+        /// p-multigrid smoother: jacobi, gauss_seidel or symmetric_gauss_seidel.
+        #[arg(long, default_value = "gauss_seidel")]
+        smoother: String,
+        /// p-multigrid pre-smoothing sweeps.
+        #[arg(long, default_value_t = 8)]
+        pre_smooth: usize,
+        /// p-multigrid post-smoothing sweeps.
+        #[arg(long, default_value_t = 8)]
+        post_smooth: usize,
+        /// Density: unit (published set-up) or sine (1 + 0.9 sin 2 pi x sin 2 pi y).
+        #[arg(long, default_value = "unit")]
+        density: String,
+        /// Timed repetitions per solve (the fastest is reported).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Worker threads [default: one per core].
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Output directory.
+        #[arg(long, default_value = "out/solver_study")]
         out: PathBuf,
     },
     /// List the built-in scenarios.
@@ -170,6 +212,78 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             let report = app::reconstruct(Some(&out))?;
             print!("{}", app::reconstruct::format_table(&report));
             println!("wrote {}", out.display());
+            Ok(())
+        }
+        Command::SolverStudy {
+            dim,
+            orders,
+            cells,
+            solvers,
+            tolerance,
+            smoother,
+            pre_smooth,
+            post_smooth,
+            density,
+            repeats,
+            threads,
+            out,
+        } => {
+            let solvers = if solvers.is_empty() {
+                SolverStudyOptions::default_solvers(dim)
+            } else {
+                solvers
+                    .iter()
+                    .map(|name| {
+                        SolverKind::parse(name).ok_or_else(|| {
+                            tlsmpm::Error::invalid(
+                                "--solvers",
+                                name,
+                                "expected cg, pcg, pmg, pmg_cg, direct, banded or kron",
+                            )
+                        })
+                    })
+                    .collect::<Result<_, _>>()?
+            };
+            let smoother = match smoother.as_str() {
+                "jacobi" => Smoother::Jacobi,
+                "gauss_seidel" => Smoother::GaussSeidel,
+                "symmetric_gauss_seidel" => Smoother::SymmetricGaussSeidel,
+                other => {
+                    return Err(tlsmpm::Error::invalid(
+                        "--smoother",
+                        other,
+                        "expected jacobi, gauss_seidel or symmetric_gauss_seidel",
+                    )
+                    .into())
+                }
+            };
+            let density = StudyDensity::parse(&density).ok_or_else(|| {
+                tlsmpm::Error::invalid("--density", &density, "expected unit or sine")
+            })?;
+            let options = SolverStudyOptions {
+                dim,
+                orders,
+                cells,
+                solvers,
+                config: SolverConfig {
+                    tolerance,
+                    smoother,
+                    pre_smooth,
+                    post_smooth,
+                    ..SolverConfig::default()
+                },
+                density,
+                repeats,
+                out_dir: out,
+            };
+            let pool = app::run::thread_pool(threads)?;
+            let rows = pool.install(|| {
+                app::solver_study::solver_study(&options, &mut |p, n, kind| {
+                    eprintln!("p = {p}, 1/h = {n}: {}", kind.name())
+                })
+            })?;
+            print!("{}", app::solver_study::format_tables(&options, &rows));
+            println!("wrote {}", options.out_dir.join("solver_study.csv").display());
             Ok(())
         }
         Command::Run { common } => {
