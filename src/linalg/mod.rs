@@ -1,6 +1,7 @@
 //! Linear algebra for mass-matrix solves (SPEC §5): a compressed-sparse-row matrix, the
-//! [`LinearSolver`] trait every solver implements, conjugate gradients and the banded
-//! Cholesky of 1D mass matrices.
+//! [`LinearSolver`] trait every solver implements, B-spline mass assembly, (preconditioned)
+//! conjugate gradients, p-multigrid, the Kronecker preconditioner, the banded Cholesky of 1D
+//! mass matrices and the sparse Cholesky of any SPD pattern (faer).
 //!
 //! Shape of the API (after faer): a solver is built once and then called every step; the
 //! initial content of `x` is the starting guess (warm start from the previous step), and
@@ -10,11 +11,13 @@ pub mod assembly;
 pub mod banded;
 pub mod cg;
 pub mod csr;
+pub mod direct;
 pub mod kron;
 
 pub use banded::BandedCholesky;
 pub use cg::{ConjugateGradient, Identity, Jacobi, JacobiCg, Pcg, Preconditioner};
 pub use csr::CsrMatrix;
+pub use direct::DirectCholesky;
 pub use kron::{KroneckerFactors, KroneckerPreconditioner};
 
 use crate::error::Result;
