@@ -1,6 +1,7 @@
 //! Linear algebra for mass-matrix solves (SPEC §5): a compressed-sparse-row matrix, the
 //! [`LinearSolver`] trait every solver implements, conjugate gradients and the banded
-//! Cholesky of 1D mass matrices.
+//! Cholesky of 1D mass matrices, and condition-number estimation by Lanczos
+//! ([`condition`], SPEC §5.1).
 //!
 //! Shape of the API (after faer): a solver is built once and then called every step; the
 //! initial content of `x` is the starting guess (warm start from the previous step), and
@@ -8,6 +9,7 @@
 
 pub mod banded;
 pub mod cg;
+pub mod condition;
 pub mod csr;
 
 pub use banded::BandedCholesky;
