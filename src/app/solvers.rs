@@ -10,7 +10,7 @@ use crate::config::{SolverConfig, SolverKind};
 use crate::error::{Error, Result};
 use crate::linalg::assembly::{interior, mass_1d, SplineSpace};
 use crate::linalg::{
-    BandedCholesky, ConjugateGradient, CsrMatrix, Jacobi, KroneckerFactors,
+    BandedCholesky, ConjugateGradient, CsrMatrix, DirectCholesky, Jacobi, KroneckerFactors,
     KroneckerPreconditioner, LinearSolver, Pcg,
 };
 
@@ -61,6 +61,9 @@ pub fn build_solver(
     let tolerance = config.tolerance;
     Ok(match config.kind {
         SolverKind::Banded => Box::new(BandedCholesky::new()),
+        // Sequential factorisation: faer's parallel supernodal path need not be bitwise
+        // reproducible across thread counts.
+        SolverKind::Direct => Box::new(DirectCholesky::new()),
         SolverKind::Cg => Box::new(ConjugateGradient::new(tolerance, MAX_ITERATIONS)),
         SolverKind::Pcg => Box::new(Pcg::with_preconditioner(
             Jacobi::default(),

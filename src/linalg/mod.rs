@@ -1,5 +1,8 @@
 //! Linear algebra for mass-matrix solves (SPEC §5): a compressed-sparse-row matrix, the
+//! ([`condition`], SPEC §5.1).
+//! Cholesky of 1D mass matrices, and condition-number estimation by Lanczos
 //! [`LinearSolver`] trait every solver implements, B-spline mass assembly, (preconditioned)
+//! [`LinearSolver`] trait every solver implements, conjugate gradients and the banded
 //! conjugate gradients, p-multigrid, the Kronecker preconditioner, the banded Cholesky of 1D
 //! mass matrices and the sparse Cholesky of any SPD pattern (faer).
 //!
@@ -10,6 +13,7 @@
 pub mod assembly;
 pub mod banded;
 pub mod cg;
+pub mod condition;
 pub mod csr;
 pub mod direct;
 pub mod kron;

@@ -20,7 +20,7 @@ use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{SolverConfig, SolverKind};
 use crate::error::{Error, Result};
 use crate::linalg::assembly::{interior, load_1d, mass_1d, mass_2d, SplineSpace};
-use crate::linalg::{CsrMatrix, KroneckerFactors};
+use crate::linalg::{condition, CsrMatrix, DirectCholesky, KroneckerFactors};
 use crate::output::plot::{loglog_plot, Axes, Series, Style};
 use crate::output::write_atomic;
 use std::fmt::Write as _;
@@ -217,16 +217,24 @@ fn condition_number(problem: &StudyProblem, density: StudyDensity) -> Result<f64
     let estimate = match density {
         StudyDensity::Unit => {
             let mut factors = KroneckerFactors::new(&problem.geometry.unit_masses())?;
-            crate::linalg::condition::condition_number(a, &mut |r: &[f64], z: &mut [f64]| {
-                factors.solve(r, z)
-            })?
+            let mut inverse = |r: &[f64], z: &mut [f64]| factors.solve(r, z);
+            condition::condition_number(a, Some(&mut inverse))?
         }
         StudyDensity::Sine => {
-            let mut direct = crate::linalg::DirectCholesky::new();
+            let mut direct = DirectCholesky::new();
             direct.factor(a)?;
-            crate::linalg::condition::condition_number(a, &mut |r: &[f64], z: &mut [f64]| {
-                direct.solve_factored(r, z)
-            })?
+            let mut failed = None;
+            let mut inverse = |r: &[f64], z: &mut [f64]| {
+                if let Err(err) = direct.solve_factored(r, z) {
+                    failed.get_or_insert(err);
+                    z.fill(f64::NAN);
+                }
+            };
+            let estimate = condition::condition_number(a, Some(&mut inverse));
+            if let Some(err) = failed {
+                return Err(err);
+            }
+            estimate?
         }
     };
     Ok(estimate.condition_number)
