@@ -28,19 +28,27 @@ fn two_dimensional(c: &mut Criterion) {
         };
         let n = space.functions();
         group.throughput(Throughput::Elements((n * n) as u64));
-        group.bench_with_input(BenchmarkId::new("quadrature", format!("p{order}")), &space, |b, s| {
-            b.iter(|| {
-                black_box(mass_2d(s, s, order + 2, |q| {
-                    1.0 + 0.9 * (tau * q.x[0]).sin() * (tau * q.x[1]).sin()
-                }))
-            })
-        });
-        group.bench_with_input(BenchmarkId::new("kronecker", format!("p{order}")), &space, |b, s| {
-            b.iter(|| {
-                let m = mass_1d(s, order + 1, |_| 1.0);
-                black_box(m.kron(&m))
-            })
-        });
+        group.bench_with_input(
+            BenchmarkId::new("quadrature", format!("p{order}")),
+            &space,
+            |b, s| {
+                b.iter(|| {
+                    black_box(mass_2d(s, s, order + 2, |q| {
+                        1.0 + 0.9 * (tau * q.x[0]).sin() * (tau * q.x[1]).sin()
+                    }))
+                })
+            },
+        );
+        group.bench_with_input(
+            BenchmarkId::new("kronecker", format!("p{order}")),
+            &space,
+            |b, s| {
+                b.iter(|| {
+                    let m = mass_1d(s, order + 1, |_| 1.0);
+                    black_box(m.kron(&m))
+                })
+            },
+        );
     }
     group.finish();
 }
@@ -54,9 +62,11 @@ fn one_dimensional(c: &mut Criterion) {
             continue;
         };
         group.throughput(Throughput::Elements(space.functions() as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(format!("p{order}")), &space, |b, s| {
-            b.iter(|| black_box(mass_1d(s, order + 2, |q| 1.0 + q.x[0])))
-        });
+        group.bench_with_input(
+            BenchmarkId::from_parameter(format!("p{order}")),
+            &space,
+            |b, s| b.iter(|| black_box(mass_1d(s, order + 2, |q| 1.0 + q.x[0]))),
+        );
     }
     group.finish();
 }

@@ -29,7 +29,11 @@ fn group(c: &mut Criterion, dim: usize, order: usize, cells: usize, density: Stu
         return;
     };
     let n = problem.rhs.len();
-    let suffix = if density == StudyDensity::Sine { "_sine" } else { "" };
+    let suffix = if density == StudyDensity::Sine {
+        "_sine"
+    } else {
+        ""
+    };
     let mut group = c.benchmark_group(format!("mass_solve_{dim}d{suffix}/p{order}_n{cells}"));
     group
         .sample_size(10)

@@ -4,10 +4,10 @@
 //! the only place that matches on `method.basis`, `method.reconstruction` and
 //! `method.subpoints`.
 
+use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{BasisKind, MassKind, ReconstructionKind, Scenario};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
-use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::linalg::assembly::SplineSpace;
 use crate::linalg::LinearSolver;
 use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping, TlsMapping};
@@ -110,9 +110,8 @@ fn mass_solver(scenario: &Scenario, grid: &Grid) -> Result<Box<dyn LinearSolver>
         BasisKind::Bspline => scenario.method.order,
         _ => 1,
     };
-    let space = SplineSpace::new(order, grid.cells, grid.length).ok_or_else(|| {
-        Error::invalid("method.order", order, "no B-spline space of this order")
-    })?;
+    let space = SplineSpace::new(order, grid.cells, grid.length)
+        .ok_or_else(|| Error::invalid("method.order", order, "no B-spline space of this order"))?;
     let geometry = SolverGeometry {
         directions: vec![space],
         boundary_dropped: false,

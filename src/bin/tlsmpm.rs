@@ -8,8 +8,8 @@ use std::io::IsTerminal as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tlsmpm::app::{self, builtin, RunOptions};
 use tlsmpm::app::solver_study::{SolverStudyOptions, StudyDensity};
+use tlsmpm::app::{self, builtin, RunOptions};
 use tlsmpm::config::{self, Scenario, Smoother, SolverConfig, SolverKind};
 
 #[derive(Parser)]
@@ -283,7 +283,10 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
                 })
             })?;
             print!("{}", app::solver_study::format_tables(&options, &rows));
-            println!("wrote {}", options.out_dir.join("solver_study.csv").display());
+            println!(
+                "wrote {}",
+                options.out_dir.join("solver_study.csv").display()
+            );
             Ok(())
         }
         Command::Run { common } => {

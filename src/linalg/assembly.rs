@@ -67,13 +67,11 @@ impl SplineSpace {
     /// assert_eq!(space.functions(), 10);
     /// ```
     pub fn new(order: usize, spans: usize, length: f64) -> Option<Self> {
-        (spans >= 1 && order <= MAX_DEGREE && length > 0.0 && length.is_finite()).then_some(
-            Self {
-                order,
-                spans,
-                length,
-            },
-        )
+        (spans >= 1 && order <= MAX_DEGREE && length > 0.0 && length.is_finite()).then_some(Self {
+            order,
+            spans,
+            length,
+        })
     }
 
     /// Number of functions, `spans + order`.
@@ -200,9 +198,7 @@ pub fn mixed_mass_1d(fine: &SplineSpace, coarse: &SplineSpace) -> CsrMatrix {
 /// `keep[i]` for all but the first and last function: homogeneous Dirichlet DOFs
 /// eliminated (SPEC §5.1).
 pub fn interior(functions: usize) -> Vec<bool> {
-    (0..functions)
-        .map(|i| i > 0 && i + 1 < functions)
-        .collect()
+    (0..functions).map(|i| i > 0 && i + 1 < functions).collect()
 }
 
 /// The sparsity pattern of the 2D tensor-product matrix: row `(i_x, i_y)` holds columns

@@ -265,7 +265,9 @@ mod tests {
         let n = 200;
         let mut a = laplacian(n);
         // Add 2 I and scale rows and columns by s_i in 1..1e3: D A D.
-        let scale: Vec<f64> = (0..n).map(|i| 10f64.powf(3.0 * i as f64 / n as f64)).collect();
+        let scale: Vec<f64> = (0..n)
+            .map(|i| 10f64.powf(3.0 * i as f64 / n as f64))
+            .collect();
         for i in 0..n {
             for k in a.row_start[i]..a.row_start[i + 1] {
                 let j = a.col_index[k];
@@ -284,10 +286,17 @@ mod tests {
         let mut pcg = JacobiCg::with_preconditioner(Jacobi::default(), 1e-8, 10_000);
         let jacobi = pcg.solve(&a, &b, &mut y).unwrap();
         assert_eq!(pcg.name(), "pcg");
-        assert!(jacobi.iterations * 3 < plain.iterations, "{jacobi:?} {plain:?}");
+        assert!(
+            jacobi.iterations * 3 < plain.iterations,
+            "{jacobi:?} {plain:?}"
+        );
         let mut r = vec![0.0; n];
         a.mul_vec(&y, &mut r);
-        let res: f64 = r.iter().zip(&b).map(|(p, q)| (p - q) * (p - q)).sum::<f64>();
+        let res: f64 = r
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| (p - q) * (p - q))
+            .sum::<f64>();
         assert!(res.sqrt() / (n as f64).sqrt() < 1e-8);
     }
 

@@ -123,7 +123,6 @@ impl CsrMatrix {
     }
 }
 
-
 impl CsrMatrix {
     /// The `n x n` identity.
     pub fn identity(n: usize) -> Self {
@@ -189,7 +188,11 @@ impl CsrMatrix {
     /// Row sums `sum_j A_ij`: the row-sum lumped diagonal of a mass matrix.
     pub fn row_sums(&self) -> Vec<f64> {
         (0..self.rows)
-            .map(|i| self.values[self.row_start[i]..self.row_start[i + 1]].iter().sum())
+            .map(|i| {
+                self.values[self.row_start[i]..self.row_start[i + 1]]
+                    .iter()
+                    .sum()
+            })
             .collect()
     }
 
@@ -368,7 +371,13 @@ mod tests {
         CsrMatrix::from_triplets(
             3,
             2,
-            &[(0, 0, 1.0), (0, 1, 2.0), (1, 1, 3.0), (2, 0, 4.0), (2, 1, 5.0)],
+            &[
+                (0, 0, 1.0),
+                (0, 1, 2.0),
+                (1, 1, 3.0),
+                (2, 0, 4.0),
+                (2, 1, 5.0),
+            ],
         )
     }
 

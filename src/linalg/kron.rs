@@ -183,7 +183,9 @@ impl Preconditioner for KroneckerPreconditioner {
         for i in 0..n {
             let d = diagonal[i];
             if d.is_nan() || d <= 0.0 {
-                return Err(failure(format!("non-positive diagonal entry {d:e} in row {i}")));
+                return Err(failure(format!(
+                    "non-positive diagonal entry {d:e} in row {i}"
+                )));
             }
             if is_decoupled(a, i) {
                 self.inverse_sqrt_scaling[i] = 0.0;
@@ -197,7 +199,12 @@ impl Preconditioner for KroneckerPreconditioner {
     }
 
     fn apply(&mut self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
-        for ((t, ri), s) in self.scaled.iter_mut().zip(r).zip(&self.inverse_sqrt_scaling) {
+        for ((t, ri), s) in self
+            .scaled
+            .iter_mut()
+            .zip(r)
+            .zip(&self.inverse_sqrt_scaling)
+        {
             *t = s * ri;
         }
         self.kronecker.solve(&self.scaled, z);
@@ -274,7 +281,10 @@ mod tests {
             let coarse = variable_density_iterations(order, 16);
             let fine = variable_density_iterations(order, 32);
             // Bounded, and falling as h resolves the density (SPEC §5.3: 3-4 at 256^2).
-            assert!(coarse <= 10 && fine <= coarse, "p = {order}: {coarse}, {fine}");
+            assert!(
+                coarse <= 10 && fine <= coarse,
+                "p = {order}: {coarse}, {fine}"
+            );
         }
     }
 

@@ -91,11 +91,7 @@ impl SolverStudyOptions {
                 "give at least one value each",
             ));
         }
-        if let Some(&p) = self
-            .orders
-            .iter()
-            .find(|&&p| p == 0 || p > MAX_STUDY_ORDER)
-        {
+        if let Some(&p) = self.orders.iter().find(|&&p| p == 0 || p > MAX_STUDY_ORDER) {
             return Err(Error::invalid(
                 "--orders",
                 p,
@@ -159,7 +155,12 @@ impl StudyProblem {
     }
 }
 
-fn study_problem(dim: usize, order: usize, cells: usize, density: StudyDensity) -> Result<StudyProblem> {
+fn study_problem(
+    dim: usize,
+    order: usize,
+    cells: usize,
+    density: StudyDensity,
+) -> Result<StudyProblem> {
     let space = SplineSpace::new(order, cells, 1.0)
         .ok_or_else(|| Error::invalid("--orders", order, "no B-spline space of this order"))?;
     let keep = interior(space.functions());
@@ -176,7 +177,8 @@ fn study_problem(dim: usize, order: usize, cells: usize, density: StudyDensity) 
     let (matrix, rhs) = match (dim, density) {
         (1, StudyDensity::Unit) => (geometry.unit_masses().remove(0), load),
         (1, StudyDensity::Sine) => (
-            mass_1d(&space, order + 2, |q| 1.0 + 0.9 * (tau * q.x[0]).sin()).submatrix(&keep, &keep),
+            mass_1d(&space, order + 2, |q| 1.0 + 0.9 * (tau * q.x[0]).sin())
+                .submatrix(&keep, &keep),
             load,
         ),
         (_, density) => {
@@ -258,13 +260,19 @@ pub fn solver_study(
             };
             for &kind in &options.solvers {
                 progress(order, cells, kind);
-                let (iterations, seconds, relative_residual) = match time_solve(&problem, kind, options) {
-                    Ok((stats, seconds)) => (Some(stats.iterations), seconds, stats.relative_residual),
-                    Err(err) => {
-                        eprintln!("warning: {} at p = {order}, 1/h = {cells}: {err}", kind.name());
-                        (None, f64::NAN, f64::NAN)
-                    }
-                };
+                let (iterations, seconds, relative_residual) =
+                    match time_solve(&problem, kind, options) {
+                        Ok((stats, seconds)) => {
+                            (Some(stats.iterations), seconds, stats.relative_residual)
+                        }
+                        Err(err) => {
+                            eprintln!(
+                                "warning: {} at p = {order}, 1/h = {cells}: {err}",
+                                kind.name()
+                            );
+                            (None, f64::NAN, f64::NAN)
+                        }
+                    };
                 rows.push(SolverStudyRow {
                     dim: options.dim,
                     order,
@@ -328,7 +336,8 @@ fn write_outputs(options: &SolverStudyOptions, rows: &[SolverStudyRow]) -> Resul
             r.order,
             r.cells,
             r.dofs,
-            r.condition_number.map_or(String::new(), |k| format!("{k:e}")),
+            r.condition_number
+                .map_or(String::new(), |k| format!("{k:e}")),
             r.solver.name(),
             r.iterations.map_or(String::new(), |k| k.to_string()),
             r.seconds,
@@ -339,7 +348,11 @@ fn write_outputs(options: &SolverStudyOptions, rows: &[SolverStudyRow]) -> Resul
     let Some(&largest) = options.cells.iter().max() else {
         return Ok(());
     };
-    let labels: Vec<String> = options.solvers.iter().map(|k| k.name().to_string()).collect();
+    let labels: Vec<String> = options
+        .solvers
+        .iter()
+        .map(|k| k.name().to_string())
+        .collect();
     let mut iteration_series = Vec::new();
     let mut time_series = Vec::new();
     for &kind in &options.solvers {
@@ -359,7 +372,11 @@ fn write_outputs(options: &SolverStudyOptions, rows: &[SolverStudyRow]) -> Resul
     }
     let title = format!("{}D mass matrix, 1/h = {largest}", options.dim);
     for (file, y_label, data) in [
-        ("solver_iterations.svg", "iterations (direct: 1)", &iteration_series),
+        (
+            "solver_iterations.svg",
+            "iterations (direct: 1)",
+            &iteration_series,
+        ),
         ("solver_seconds.svg", "seconds per solve", &time_series),
     ] {
         let series: Vec<Series> = data
@@ -411,7 +428,11 @@ pub fn format_tables(options: &SolverStudyOptions, rows: &[SolverStudyRow]) -> S
     let first = options.solvers[0];
     header(
         &mut out,
-        &format!("Condition number kappa(M), {}D{}", options.dim, if published { " (published)" } else { "" }),
+        &format!(
+            "Condition number kappa(M), {}D{}",
+            options.dim,
+            if published { " (published)" } else { "" }
+        ),
     );
     for &p in &options.orders {
         let _ = write!(out, "| {p} |");
@@ -434,7 +455,11 @@ pub fn format_tables(options: &SolverStudyOptions, rows: &[SolverStudyRow]) -> S
                 "{}: iterations to {:e}{}",
                 kind.name(),
                 options.config.tolerance,
-                if published && matches!(kind, SolverKind::Cg | SolverKind::Pmg) { " (published)" } else { "" }
+                if published && matches!(kind, SolverKind::Cg | SolverKind::Pmg) {
+                    " (published)"
+                } else {
+                    ""
+                }
             ),
         );
         for &p in &options.orders {
