@@ -39,15 +39,18 @@ fn main() {
 }
 
 #[cfg(unix)]
+#[path = "common/mod.rs"]
+mod common;
+
+#[cfg(unix)]
 mod profile {
-    use std::collections::HashMap;
+    use crate::common;
     use std::path::PathBuf;
     use std::time::Instant;
     use tlsmpm::app::build::build_simulation;
 
     const SCENARIO: &str = include_str!("../scenarios/vibrating_bar.toml");
     const PER_CELL: usize = 12;
-    const TOP: usize = 12;
 
     pub const USAGE: &str = "\
 usage: profile_step [--particles N] [--steps S] [--out FILE]
@@ -71,78 +74,23 @@ usage: profile_step [--particles N] [--steps S] [--out FILE]
                 steps: 200,
                 out: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("perf/flamegraph_step.svg"),
             };
-            let mut it = args.iter();
-            while let Some(arg) = it.next() {
-                let (flag, inline) = match arg.split_once('=') {
-                    Some((flag, value)) if flag.starts_with("--") => {
-                        (flag, Some(value.to_string()))
-                    }
-                    _ => (arg.as_str(), None),
-                };
-                if matches!(flag, "-h" | "--help") {
-                    return Ok(None);
-                }
-                if !matches!(flag, "--particles" | "--steps" | "--out") {
-                    return Err(format!("unknown argument `{arg}`"));
-                }
-                let value = match inline {
-                    Some(value) => value,
-                    None => it
-                        .next()
-                        .cloned()
-                        .ok_or_else(|| format!("`{flag}` needs a value"))?,
-                };
+            let flags = ["--particles", "--steps", "--out"];
+            let complete = common::parse_flags(args, &flags, |flag, value| {
                 match flag {
                     "--particles" => {
-                        options.particles = count(flag, &value)?;
+                        options.particles = common::count(flag, &value)?;
                         if options.particles < PER_CELL {
                             return Err(format!(
                                 "`--particles {value}`: need at least {PER_CELL} (one cell)"
                             ));
                         }
                     }
-                    "--steps" => options.steps = count(flag, &value)?,
-                    _ => {
-                        if value.is_empty() {
-                            return Err("`--out` needs a non-empty path".to_string());
-                        }
-                        options.out = PathBuf::from(value);
-                    }
+                    "--steps" => options.steps = common::count(flag, &value)?,
+                    _ => options.out = common::out_path(value)?,
                 }
-            }
-            Ok(Some(options))
-        }
-    }
-
-    /// A positive integer; accepts `1000000`, `1_000_000` and `1e6`.
-    fn count(flag: &str, value: &str) -> Result<usize, String> {
-        let bad = || format!("`{flag} {value}`: expected a positive integer");
-        let cleaned = value.replace('_', "");
-        let n = match cleaned.parse::<usize>() {
-            Ok(n) => n,
-            Err(_) => {
-                let x: f64 = cleaned.parse().map_err(|_| bad())?;
-                if !(x.is_finite() && x >= 1.0 && x.fract() == 0.0 && x <= 1e15) {
-                    return Err(bad());
-                }
-                x as usize
-            }
-        };
-        if n == 0 {
-            return Err(bad());
-        }
-        Ok(n)
-    }
-
-    /// Strip the `::h0123456789abcdef` hash of a demangled Rust symbol.
-    fn short(name: &str) -> &str {
-        match name.rsplit_once("::h") {
-            Some((head, hash))
-                if hash.len() == 16 && hash.bytes().all(|b| b.is_ascii_hexdigit()) =>
-            {
-                head
-            }
-            _ => name,
+                Ok(())
+            })?;
+            Ok(complete.then_some(options))
         }
     }
 
@@ -163,11 +111,7 @@ usage: profile_step [--particles N] [--steps S] [--out FILE]
             options.steps
         );
 
-        let guard = pprof::ProfilerGuardBuilder::default()
-            .frequency(1000)
-            .blocklist(&["libc", "libgcc", "pthread", "vdso"])
-            .build()
-            .map_err(|e| format!("starting the profiler: {e}"))?;
+        let guard = common::start_profiler()?;
         let start = Instant::now();
         let dt = sim.stepper.dt();
         let mut crossings = 0;
@@ -185,10 +129,7 @@ usage: profile_step [--particles N] [--steps S] [--out FILE]
             crossings += report.crossings;
         }
         let elapsed = start.elapsed().as_secs_f64();
-        let report = guard
-            .report()
-            .build()
-            .map_err(|e| format!("building the profile report: {e}"))?;
+        let report = common::build_report(&guard)?;
         println!(
             "{:.3} s, {:.3} ms/step, {:.3e} particle-steps/s, {crossings} grid crossings",
             elapsed,
@@ -196,53 +137,8 @@ usage: profile_step [--particles N] [--steps S] [--out FILE]
             (particles * options.steps) as f64 / elapsed
         );
 
-        if let Some(dir) = options.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
-        }
-        let file = std::fs::File::create(&options.out)
-            .map_err(|e| format!("creating {}: {e}", options.out.display()))?;
-        report
-            .flamegraph(std::io::BufWriter::new(file))
-            .map_err(|e| format!("writing {}: {e}", options.out.display()))?;
-        println!("wrote {}", options.out.display());
-
-        // Self samples per leaf frame (innermost inlined function), and inclusive samples
-        // per tlsmpm function (counted once per stack).
-        let mut total = 0isize;
-        let mut leaf: HashMap<String, isize> = HashMap::new();
-        let mut inclusive: HashMap<String, isize> = HashMap::new();
-        for (frames, &count) in &report.data {
-            total += count;
-            let names: Vec<String> = frames
-                .frames
-                .iter()
-                .flatten()
-                .map(|s| short(&s.name()).to_string())
-                .collect();
-            if let Some(first) = names.first() {
-                *leaf.entry(first.clone()).or_default() += count;
-            }
-            let mut seen: Vec<&String> = names
-                .iter()
-                .filter(|n| n.starts_with("tlsmpm::") || n.starts_with("<tlsmpm::"))
-                .collect();
-            seen.sort();
-            seen.dedup();
-            for name in seen {
-                *inclusive.entry(name.clone()).or_default() += count;
-            }
-        }
-        let print = |title: &str, map: HashMap<String, isize>| {
-            let mut rows: Vec<(String, isize)> = map.into_iter().collect();
-            rows.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
-            println!("\n{title} ({total} samples)");
-            for (name, count) in rows.into_iter().take(TOP) {
-                let pct = 100.0 * count as f64 / total.max(1) as f64;
-                println!("{pct:6.1}%  {count:7}  {name}");
-            }
-        };
-        print("self samples, by leaf frame", leaf);
-        print("inclusive samples, tlsmpm functions", inclusive);
+        common::write_flamegraph(&report, &options.out)?;
+        common::print_tables(&report);
         Ok(())
     }
 }
