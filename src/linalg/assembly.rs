@@ -309,16 +309,6 @@ pub fn mass_2d(
 mod tests {
     use super::*;
 
-    fn dense(a: &CsrMatrix) -> Vec<Vec<f64>> {
-        let mut d = vec![vec![0.0; a.cols]; a.rows];
-        for i in 0..a.rows {
-            for k in a.row_start[i]..a.row_start[i + 1] {
-                d[i][a.col_index[k]] += a.values[k];
-            }
-        }
-        d
-    }
-
     #[test]
     fn one_dimensional_mass_sums_to_the_total_mass_and_reproduces_linear_hats() {
         for order in 1..=5 {
@@ -327,10 +317,10 @@ mod tests {
             let total: f64 = m.values.iter().sum();
             assert!((total - 6.0).abs() < 1e-12, "order {order}: {total}");
             // Symmetric.
-            let d = dense(&m);
-            for i in 0..m.rows {
-                for j in 0..m.rows {
-                    assert!((d[i][j] - d[j][i]).abs() < 1e-15);
+            let d = m.to_dense();
+            for (i, row) in d.iter().enumerate() {
+                for (j, value) in row.iter().enumerate() {
+                    assert!((value - d[j][i]).abs() < 1e-15);
                 }
             }
         }
@@ -347,7 +337,7 @@ mod tests {
         let coarse = fine.with_order(2);
         let mass = mass_1d(&fine, 4, |_| 1.0);
         let same = mixed_mass_1d(&fine, &fine);
-        let (dm, ds) = (dense(&mass), dense(&same));
+        let (dm, ds) = (mass.to_dense(), same.to_dense());
         for i in 0..mass.rows {
             for j in 0..mass.rows {
                 assert!((dm[i][j] - ds[i][j]).abs() < 1e-15);

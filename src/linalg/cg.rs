@@ -152,8 +152,8 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
         self.direction.resize(n, 0.0);
         self.product.resize(n, 0.0);
         a.par_mul_vec(x, &mut self.product);
-        for i in 0..n {
-            self.residual[i] = b[i] - self.product[i];
+        for ((r, bi), q) in self.residual.iter_mut().zip(b).zip(&self.product) {
+            *r = bi - q;
         }
         let mut relative = dot(&self.residual, &self.residual).sqrt() / b_norm;
         if relative < self.tolerance {

@@ -113,11 +113,14 @@ impl CsrMatrix {
         (0..self.rows.min(self.cols))
             .map(|i| {
                 let range = self.row_start[i]..self.row_start[i + 1];
-                self.col_index[range.clone()]
-                    .iter()
-                    .zip(&self.values[range])
-                    .find(|(&j, _)| j == i)
-                    .map_or(0.0, |(_, &a)| a)
+                let columns = &self.col_index[range.clone()];
+                // Columns are sorted in every matrix the crate builds: binary search, with a
+                // scan as the fallback for hand-made unsorted rows.
+                let position = columns
+                    .binary_search(&i)
+                    .ok()
+                    .or_else(|| columns.iter().position(|&j| j == i));
+                position.map_or(0.0, |k| self.values[range.start + k])
             })
             .collect()
     }
@@ -342,6 +345,18 @@ impl CsrMatrix {
         }
     }
 
+    /// The dense matrix, row by row (duplicates summed): for tests and small debugging
+    /// output.
+    pub fn to_dense(&self) -> Vec<Vec<f64>> {
+        let mut dense = vec![vec![0.0; self.cols]; self.rows];
+        for (i, row) in dense.iter_mut().enumerate() {
+            for k in self.row_start[i]..self.row_start[i + 1] {
+                row[self.col_index[k]] += self.values[k];
+            }
+        }
+        dense
+    }
+
     /// Scale row `i` by `row_scale[i]`.
     pub fn scale_rows(&mut self, row_scale: &[f64]) {
         for (i, &s) in row_scale.iter().enumerate().take(self.rows) {
@@ -381,25 +396,15 @@ mod tests {
         )
     }
 
-    fn dense(a: &CsrMatrix) -> Vec<Vec<f64>> {
-        let mut d = vec![vec![0.0; a.cols]; a.rows];
-        for i in 0..a.rows {
-            for k in a.row_start[i]..a.row_start[i + 1] {
-                d[i][a.col_index[k]] += a.values[k];
-            }
-        }
-        d
-    }
-
     #[test]
     fn transpose_matmul_kron_and_submatrix_agree_with_dense_algebra() {
         let a = sample();
         let at = a.transpose();
-        assert_eq!(dense(&at), vec![vec![1.0, 0.0, 4.0], vec![2.0, 3.0, 5.0]]);
+        assert_eq!(at.to_dense(), vec![vec![1.0, 0.0, 4.0], vec![2.0, 3.0, 5.0]]);
         let ata = at.matmul(&a);
-        assert_eq!(dense(&ata), vec![vec![17.0, 22.0], vec![22.0, 38.0]]);
+        assert_eq!(ata.to_dense(), vec![vec![17.0, 22.0], vec![22.0, 38.0]]);
         let k = at.kron(&a);
-        let (da, dat, dk) = (dense(&a), dense(&at), dense(&k));
+        let (da, dat, dk) = (a.to_dense(), at.to_dense(), k.to_dense());
         for ia in 0..2 {
             for ja in 0..3 {
                 for ib in 0..3 {
@@ -410,7 +415,7 @@ mod tests {
             }
         }
         let s = a.submatrix(&[true, false, true], &[false, true]);
-        assert_eq!(dense(&s), vec![vec![2.0], vec![5.0]]);
+        assert_eq!(s.to_dense(), vec![vec![2.0], vec![5.0]]);
         let mut y = [0.0; 2];
         a.mul_transpose_vec(&[1.0, 1.0, 1.0], &mut y);
         assert_eq!(y, [5.0, 10.0]);

@@ -180,8 +180,7 @@ impl Preconditioner for KroneckerPreconditioner {
         self.inverse_sqrt_scaling.resize(n, 0.0);
         self.decoupled_inverse.resize(n, 0.0);
         self.scaled.resize(n, 0.0);
-        for i in 0..n {
-            let d = diagonal[i];
+        for (i, &d) in diagonal.iter().enumerate() {
             if d.is_nan() || d <= 0.0 {
                 return Err(failure(format!(
                     "non-positive diagonal entry {d:e} in row {i}"
