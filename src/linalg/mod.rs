@@ -10,10 +10,15 @@ pub mod assembly;
 pub mod banded;
 pub mod cg;
 pub mod csr;
+pub mod pmg;
 
 pub use banded::BandedCholesky;
 pub use cg::{ConjugateGradient, Identity, Jacobi, JacobiCg, Pcg, Preconditioner};
 pub use csr::CsrMatrix;
+pub use pmg::{
+    CoarseOperators, CoarseSolver, Hierarchy, PMultigrid, PmgCg, PmgPreconditioner, PmgSettings,
+    Smoother, TransferKind,
+};
 
 use crate::error::Result;
 
