@@ -28,6 +28,14 @@
 //!   as explicit zeros: the sparsity patterns never change, and a solve with a matrix of
 //!   the same pattern recomputes the values without allocating.
 //!
+//!   SPD in exact arithmetic is not enough: the L2 prolongation maps the coarse zigzag
+//!   mode (alternating signs, orthogonal to every fine B-spline of one order higher in the
+//!   interior) to almost zero, so `I^T A I` is nearly singular, more so on every further
+//!   Galerkin level (p >= 4 in 2D: Cholesky pivots of -1e-11 from round-off). The coarse
+//!   operators are therefore `A_{l+1} = I^T A I + 1e-8 diag(I^T A I)`: the shift only
+//!   matters for coarse vectors `v` with `||I v||_A < 1e-4 ||v||_D` (`D` the diagonal),
+//!   which the coarse correction could not use anyway.
+//!
 //! Spline set-ups ([`Hierarchy::spline_1d`], [`Hierarchy::spline_2d`]) use unit density
 //! (SPEC §5.1). Eliminated DOFs are dropped with [`CsrMatrix::submatrix`] from the full
 //! matrices of every order; the lumped masses are the row sums of the *full* mass matrices
@@ -94,6 +102,9 @@ struct GalerkinProducts {
     fine_decoupled: Vec<bool>,
     coarse_eliminated: Vec<bool>,
 }
+
+/// Relative diagonal shift of the Galerkin coarse operators (module doc).
+pub(crate) const GALERKIN_SHIFT: f64 = 1e-8;
 
 fn failure(reason: String) -> Error {
     Error::Solver {
@@ -367,6 +378,13 @@ impl Hierarchy {
             }
             multiply_into(fine, prolongation, &mut g.products[l], &mut g.accumulator);
             multiply_into(restriction, &g.products[l], coarse, &mut g.accumulator);
+            for j in 0..coarse.rows {
+                for k in coarse.row_start[j]..coarse.row_start[j + 1] {
+                    if coarse.col_index[k] == j {
+                        coarse.values[k] *= 1.0 + GALERKIN_SHIFT;
+                    }
+                }
+            }
             for (j, _) in g.coarse_eliminated.iter().enumerate().filter(|(_, &e)| e) {
                 // Row and column j of I^T A I vanish: make it an identity row.
                 let range = coarse.row_start[j]..coarse.row_start[j + 1];
