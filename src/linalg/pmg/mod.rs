@@ -13,18 +13,22 @@
 //! ```
 //!
 //! The coarse solve is CG to `||r|| / ||f|| < 1e-4` (SPEC §5; at most 100 steps) or a
-//! banded Cholesky ([`CoarseSolver`]). [`PMultigrid`] repeats V-cycles from the initial guess until
-//! `||b - A x|| / ||b|| < tolerance` (the CG criterion, [`crate::linalg::cg`]); one cycle
-//! is one iteration. A one-level hierarchy (order 1) is the coarse solve itself, run to the
-//! outer tolerance (SPEC §5.1 counts one cycle for `p = 1`).
+//! banded Cholesky ([`CoarseSolver`]). [`PMultigrid`] repeats V-cycles from the initial
+//! guess until `||b - A x|| / ||b|| < tolerance` (the CG criterion, [`crate::linalg::cg`]);
+//! one cycle is one iteration. A one-level hierarchy (order 1) is the coarse solve itself,
+//! run to the outer tolerance (SPEC §5.1 counts one cycle for `p = 1`).
 //!
 //! [`PmgPreconditioner`] is one V-cycle from a zero guess, `z = V(r)`, for CG ([`PmgCg`]).
 //! CG needs a fixed symmetric positive definite `V`, so the preconditioner requires
 //! symmetric transfers (`R_l = I_l^T`), `nu_1 = nu_2` and post-smoothing with the adjoint
-//! smoother `S*` (backward Gauss–Seidel after forward; Jacobi and symmetric GS are
-//! self-adjoint). Its default coarse solve is CG to 1e-10: linear to well below the outer
-//! tolerance and, unlike a banded Cholesky of the order-1 level (exact, and the better
-//! choice in 1D, bandwidth 1), cheap in 2D, where that band is `n_x + 1` wide.
+//! smoother `S*` (backward Gauss–Seidel after forward; Jacobi, symmetric GS and ILU(0) are
+//! self-adjoint), and the smoother must converge on its own: raw damped Jacobi with
+//! `omega = 2/3` does not on 2D mass matrices of order >= 2 (use
+//! [`Smoother::ScaledJacobi`]). Its default coarse solve is CG to 1e-10: linear to well
+//! below the outer tolerance and, unlike a banded Cholesky of the order-1 level (exact,
+//! and the better choice in 1D, bandwidth 1), cheap in 2D, where that band is `n_x + 1`
+//! wide. Galerkin hierarchies should use [`CoarseSolver::BandedCholesky`] (their coarse
+//! operator is nearly singular in one mode, see `hierarchy.rs`, which slows CG down).
 //!
 //! Level operators and transfers come from a [`Hierarchy`] (re-discretised or Galerkin,
 //! published or symmetric transfers; see `hierarchy.rs`). All work vectors live per level

@@ -145,11 +145,11 @@ fn spline_transfers_reproduce_constants_and_published_restriction_is_not_the_tra
 
 #[test]
 fn two_dimensional_v_cycles_are_h_independent_and_within_the_published_counts() {
-    // SPEC §5.1 published V-cycles at 1/h = 8, 16: p = 2: 4/4, p = 3: 15/12.
-    // Measured (symmetric GS, published transfers): p = 2: 3/3, p = 3: 13/11 (SPEC §5.2).
-    let published = [(2, [4, 4]), (3, [15, 12])];
-    for (p, bound) in published {
-        let counts: Vec<usize> = [8, 16]
+    // 1/h = 8, 16, 32. SPEC §5.1 published: p = 2: 4/4/4, p = 3: 15/12/10. SPEC §5.2
+    // recomputation with symmetric GS: 3/3/3 and 13/11/9; measured here: the same.
+    let bounds = [(2, [3, 3, 3]), (3, [13, 11, 9])];
+    for (p, bound) in bounds {
+        let counts: Vec<usize> = [8, 16, 32]
             .iter()
             .map(|&cells| {
                 v_cycles(
@@ -162,10 +162,13 @@ fn two_dimensional_v_cycles_are_h_independent_and_within_the_published_counts() 
             })
             .collect();
         assert!(
-            counts[0] <= bound[0] && counts[1] <= bound[1],
+            counts.iter().zip(&bound).all(|(c, b)| c <= b),
             "p = {p}: {counts:?}"
         );
-        assert!(counts[1] <= counts[0] + 1, "p = {p}: {counts:?}");
+        assert!(
+            counts[1] <= counts[0] + 1 && counts[2] <= counts[1] + 1,
+            "p = {p}: {counts:?}"
+        );
     }
 }
 
@@ -548,63 +551,199 @@ fn results_are_bitwise_the_same_for_one_and_three_threads() {
     assert_eq!(one, three);
 }
 
-/// The measured tables of the report: V-cycles for p = 1..5, 1/h = 8..64 (SPEC §5.1,
-/// §5.2 set-up, V(8,8), coarse CG 1e-4, f = 9.81 int phi), pmg-cg and plain CG counts.
+/// The measured tables of the report (wall times are reported, never asserted):
+/// * SPEC §5.1 set-up (unit density, boundary DOFs dropped, f = 9.81 int phi), V(8,8),
+///   coarse CG 1e-4: V-cycles per smoother and transfer kind, pmg-cg, plain and Jacobi CG;
+/// * SPEC §5.3 variable density with Galerkin levels.
+///
 /// `cargo test --release --lib pmg::tests::measure -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn measure_v_cycle_counts() {
-    let cells = [8, 16, 32, 64];
-    let show = |label: &str, count: &dyn Fn(usize, usize) -> String| {
+    use crate::linalg::{Jacobi, JacobiCg};
+    let show =
+        |label: &str, orders: &[usize], cells: &[usize], count: &dyn Fn(usize, usize) -> String| {
+            let start = std::time::Instant::now();
+            let header: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
+            println!(
+                "\n{label}\n| p \\ 1/h | {} |\n|---|{}",
+                header.join(" | "),
+                "---|".repeat(cells.len())
+            );
+            for &p in orders {
+                let row: Vec<String> = cells.iter().map(|&c| count(p, c)).collect();
+                println!("| {p} | {} |", row.join(" | "));
+            }
+            println!("({:.1} s)", start.elapsed().as_secs_f64());
+        };
+    let timed = |f: &dyn Fn() -> Result<SolveStats>| {
         let start = std::time::Instant::now();
-        println!("\n{label}\n| p \\ 1/h | 8 | 16 | 32 | 64 |\n|---|---|---|---|---|");
-        for p in 1..=5 {
-            let row: Vec<String> = cells.iter().map(|&c| count(p, c)).collect();
-            println!("| {p} | {} |", row.join(" | "));
-        }
-        println!("({:.1} s)", start.elapsed().as_secs_f64());
-    };
-    let cycles = |transfers, smoother| {
-        move |p, c| match v_cycles(p, c, transfers, smoother) {
-            Ok(n) => n.to_string(),
+        let result = f();
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        match result {
+            Ok(s) => format!("{} ({ms:.1} ms)", s.iterations),
             Err(Error::Solver { reason, .. }) if reason.contains("V-cycles") => ">1000".into(),
             Err(_) => "div".into(),
         }
     };
+    let (all, cells) = ([1, 2, 3, 4, 5], [8, 16, 32, 64]);
     let published = TransferKind::Published;
-    for (name, smoother, transfers) in [
-        ("Gauss–Seidel", Smoother::GaussSeidel, published),
-        ("symmetric GS", Smoother::SymmetricGaussSeidel, published),
+    for (name, smoother, transfers, steps) in [
+        ("Gauss–Seidel", Smoother::GaussSeidel, published, 8),
+        ("symmetric GS", Smoother::SymmetricGaussSeidel, published, 8),
         (
             "symmetric GS",
             Smoother::SymmetricGaussSeidel,
             TransferKind::Symmetric,
+            8,
         ),
-        ("damped Jacobi omega = 2/3", Smoother::JACOBI, published),
+        ("damped Jacobi omega = 2/3", Smoother::JACOBI, published, 8),
         (
-            "scaled Jacobi omega = 1 (1 / lambda_max bound)",
+            "scaled Jacobi omega = 1",
             Smoother::ScaledJacobi { omega: 1.0 },
             published,
+            8,
         ),
+        (
+            "scaled Jacobi omega = 2",
+            Smoother::ScaledJacobi { omega: 2.0 },
+            published,
+            8,
+        ),
+        ("ILU(0)", Smoother::Ilu0, published, 1),
     ] {
         show(
-            &format!("V(8,8) cycles, {name}, {transfers:?} transfers"),
-            &cycles(transfers, smoother),
+            &format!("V({steps},{steps}) cycles, {name}, {transfers:?} transfers"),
+            &all,
+            &cells,
+            &|p, c| {
+                let (hierarchy, a, b) = dirichlet_2d(p, c, transfers);
+                let settings = PmgSettings {
+                    smoother,
+                    pre_smooth: steps,
+                    post_smooth: steps,
+                    max_cycles: 1000,
+                    ..PmgSettings::default()
+                };
+                timed(&|| {
+                    PMultigrid::new(hierarchy.clone(), settings).solve(
+                        &a,
+                        &b,
+                        &mut vec![0.0; b.len()],
+                    )
+                })
+            },
         );
     }
     show(
         "pmg-cg iterations (symmetric GS V(8,8), coarse CG 1e-10)",
+        &all,
+        &cells,
         &|p, c| {
-            pmg_cg_iterations(p, c, PmgSettings::preconditioner(), 1e-8)
-                .0
-                .to_string()
+            let (hierarchy, a, b) = dirichlet_2d(p, c, TransferKind::Symmetric);
+            timed(&|| {
+                PmgPreconditioner::new(hierarchy.clone(), PmgSettings::preconditioner())?
+                    .into_cg(1e-8, 1000)
+                    .solve(&a, &b, &mut vec![0.0; b.len()])
+            })
         },
     );
-    show("plain CG iterations", &|p, c| {
+    for steps in [1, 2] {
+        show(
+            &format!("pmg-cg iterations (symmetric GS V({steps},{steps}), coarse CG 1e-10)"),
+            &all,
+            &cells,
+            &|p, c| {
+                let (hierarchy, a, b) = dirichlet_2d(p, c, TransferKind::Symmetric);
+                let settings = PmgSettings {
+                    pre_smooth: steps,
+                    post_smooth: steps,
+                    ..PmgSettings::preconditioner()
+                };
+                timed(&|| {
+                    PmgPreconditioner::new(hierarchy.clone(), settings)?
+                        .into_cg(1e-8, 1000)
+                        .solve(&a, &b, &mut vec![0.0; b.len()])
+                })
+            },
+        );
+    }
+    show("plain CG iterations", &all, &cells, &|p, c| {
         let (_, a, b) = dirichlet_2d(p, c, TransferKind::Symmetric);
-        let mut x = vec![0.0; b.len()];
-        ConjugateGradient::new(1e-8, 100_000)
-            .solve(&a, &b, &mut x)
-            .map_or(">1e5".into(), |s| s.iterations.to_string())
+        timed(&|| ConjugateGradient::new(1e-8, 100_000).solve(&a, &b, &mut vec![0.0; b.len()]))
     });
+    show("Jacobi-PCG iterations", &all, &cells, &|p, c| {
+        let (_, a, b) = dirichlet_2d(p, c, TransferKind::Symmetric);
+        timed(&|| {
+            JacobiCg::with_preconditioner(Jacobi::default(), 1e-8, 100_000).solve(
+                &a,
+                &b,
+                &mut vec![0.0; b.len()],
+            )
+        })
+    });
+    // Variable density (SPEC §5.3), Galerkin levels, coarse Cholesky.
+    let varying = [2, 3, 4, 5];
+    let galerkin = |smoother, steps| {
+        move |p, c| {
+            let (space, a, b) = variable_density_2d(p, c);
+            let settings = PmgSettings {
+                smoother,
+                pre_smooth: steps,
+                post_smooth: steps,
+                coarse: CoarseSolver::BandedCholesky,
+                max_cycles: 1000,
+                ..PmgSettings::default()
+            };
+            let hierarchy = Hierarchy::galerkin_2d(&space, &space).unwrap();
+            timed(&|| {
+                PMultigrid::new(hierarchy.clone(), settings).solve(&a, &b, &mut vec![0.0; b.len()])
+            })
+        }
+    };
+    show(
+        "variable density, Galerkin: V(8,8) cycles, symmetric GS",
+        &varying,
+        &[8, 16, 32],
+        &galerkin(Smoother::SymmetricGaussSeidel, 8),
+    );
+    show(
+        "variable density, Galerkin: V(1,1) cycles, ILU(0)",
+        &varying,
+        &[8, 16, 32],
+        &galerkin(Smoother::Ilu0, 1),
+    );
+    show(
+        "variable density, Galerkin: pmg-cg (symmetric GS V(8,8), coarse Cholesky)",
+        &varying,
+        &[8, 16, 32],
+        &|p, c| {
+            let (space, a, b) = variable_density_2d(p, c);
+            let settings = PmgSettings {
+                coarse: CoarseSolver::BandedCholesky,
+                ..PmgSettings::preconditioner()
+            };
+            let hierarchy = Hierarchy::galerkin_2d(&space, &space).unwrap();
+            timed(&|| {
+                PmgPreconditioner::new(hierarchy.clone(), settings)?
+                    .into_cg(1e-8, 1000)
+                    .solve(&a, &b, &mut vec![0.0; b.len()])
+            })
+        },
+    );
+    show(
+        "variable density: Jacobi-PCG",
+        &varying,
+        &[8, 16, 32],
+        &|p, c| {
+            let (_, a, b) = variable_density_2d(p, c);
+            timed(&|| {
+                JacobiCg::with_preconditioner(Jacobi::default(), 1e-8, 100_000).solve(
+                    &a,
+                    &b,
+                    &mut vec![0.0; b.len()],
+                )
+            })
+        },
+    );
 }
