@@ -17,12 +17,17 @@ pub mod condition;
 pub mod csr;
 pub mod direct;
 pub mod kron;
+pub mod pmg;
 
 pub use banded::BandedCholesky;
 pub use cg::{ConjugateGradient, Identity, Jacobi, JacobiCg, Pcg, Preconditioner};
 pub use csr::CsrMatrix;
 pub use direct::DirectCholesky;
 pub use kron::{KroneckerFactors, KroneckerPreconditioner};
+pub use pmg::{
+    CoarseOperators, CoarseSolver, Hierarchy, PMultigrid, PmgCg, PmgPreconditioner, PmgSettings,
+    Smoother, TransferKind,
+};
 
 use crate::error::Result;
 
