@@ -798,6 +798,19 @@ impl Scenario {
                 ));
             }
         }
+        if self.solver.kind == SolverKind::PmgCg
+            && self.solver.pre_smooth != self.solver.post_smooth
+        {
+            return Err(Error::invalid(
+                "solver.post_smooth",
+                self.solver.post_smooth,
+                format!(
+                    "a V-cycle preconditioner must be symmetric: set post_smooth = pre_smooth \
+                     (= {})",
+                    self.solver.pre_smooth
+                ),
+            ));
+        }
         if self.solver.tolerance >= 1.0 {
             return Err(Error::invalid(
                 "solver.tolerance",

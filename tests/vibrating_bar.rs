@@ -320,7 +320,7 @@ fn every_mass_solver_gives_the_same_bsmpm_tls_answer() {
         let stress = by_id(&reference, &reference.particles.stress);
         let v_scale = velocity.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let s_scale = stress.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for kind in ["cg", "pcg", "direct", "kron"] {
+        for kind in ["cg", "pcg", "pmg", "pmg_cg", "direct", "kron"] {
             let kind_key = format!("solver.kind=\"{kind}\"");
             let mut overrides = base.to_vec();
             overrides.push(&kind_key);
@@ -362,7 +362,7 @@ fn iterative_mass_solvers_report_their_iterations() {
     let banded = run(scenario("vibrating_bar", &base), None);
     assert_eq!(banded.solver.kind, "banded");
     assert_eq!(banded.solver.total_iterations, 0);
-    for kind in ["cg", "kron"] {
+    for kind in ["cg", "pmg", "pmg_cg", "kron"] {
         let kind_key = format!("solver.kind=\"{kind}\"");
         let mut overrides = base.to_vec();
         overrides.push(&kind_key);

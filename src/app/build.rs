@@ -9,7 +9,7 @@ use crate::config::{BasisKind, MassKind, ReconstructionKind, Scenario};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::assembly::SplineSpace;
-use crate::linalg::LinearSolver;
+use crate::linalg::{CoarseOperators, LinearSolver};
 use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping, TlsMapping};
 use crate::particles::Particles;
 use crate::physics::stability::{critical_time_step, critical_time_step_consistent};
@@ -115,6 +115,7 @@ fn mass_solver(scenario: &Scenario, grid: &Grid) -> Result<Box<dyn LinearSolver>
     let geometry = SolverGeometry {
         directions: vec![space],
         boundary_dropped: false,
+        coarse_operators: CoarseOperators::Galerkin,
     };
     build_solver(&scenario.solver, &geometry)
 }

@@ -63,8 +63,9 @@ enum Command {
         /// Relative residual to reach.
         #[arg(long, default_value_t = 1e-8)]
         tolerance: f64,
-        /// p-multigrid smoother: jacobi, gauss_seidel or symmetric_gauss_seidel.
-        #[arg(long, default_value = "gauss_seidel")]
+        /// p-multigrid smoother: jacobi, gauss_seidel or symmetric_gauss_seidel (the best
+        /// of SPEC 5.2).
+        #[arg(long, default_value = "symmetric_gauss_seidel")]
         smoother: String,
         /// p-multigrid pre-smoothing sweeps.
         #[arg(long, default_value_t = 8)]

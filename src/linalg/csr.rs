@@ -400,7 +400,10 @@ mod tests {
     fn transpose_matmul_kron_and_submatrix_agree_with_dense_algebra() {
         let a = sample();
         let at = a.transpose();
-        assert_eq!(at.to_dense(), vec![vec![1.0, 0.0, 4.0], vec![2.0, 3.0, 5.0]]);
+        assert_eq!(
+            at.to_dense(),
+            vec![vec![1.0, 0.0, 4.0], vec![2.0, 3.0, 5.0]]
+        );
         let ata = at.matmul(&a);
         assert_eq!(ata.to_dense(), vec![vec![17.0, 22.0], vec![22.0, 38.0]]);
         let k = at.kron(&a);

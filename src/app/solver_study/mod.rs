@@ -20,7 +20,7 @@ use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{SolverConfig, SolverKind};
 use crate::error::{Error, Result};
 use crate::linalg::assembly::{interior, load_1d, mass_1d, mass_2d, SplineSpace};
-use crate::linalg::{condition, CsrMatrix, DirectCholesky, KroneckerFactors};
+use crate::linalg::{condition, CoarseOperators, CsrMatrix, DirectCholesky, KroneckerFactors};
 use crate::output::plot::{loglog_plot, Axes, Series, Style};
 use crate::output::write_atomic;
 use std::fmt::Write as _;
@@ -173,6 +173,10 @@ fn study_problem(
     let geometry = SolverGeometry {
         directions: vec![space; dim],
         boundary_dropped: true,
+        coarse_operators: match density {
+            StudyDensity::Unit => CoarseOperators::Rediscretised,
+            StudyDensity::Sine => CoarseOperators::Galerkin,
+        },
     };
     let (matrix, rhs) = match (dim, density) {
         (1, StudyDensity::Unit) => (geometry.unit_masses().remove(0), load),

@@ -277,15 +277,34 @@ impl Hierarchy {
     /// matrix assembled on `space` with any density and constraints; an order-1 (or 0)
     /// space gives a single level.
     pub fn galerkin_1d(space: &SplineSpace) -> Result<Self> {
-        let levels = SplineLevels::one_dimensional(space);
-        let keeps: Vec<Vec<bool>> = levels.functions.iter().map(|&n| vec![true; n]).collect();
-        levels.galerkin(&keeps)
+        Self::galerkin_spline_1d(space, |n| vec![true; n])
     }
 
     /// Galerkin hierarchy over all DOFs of the tensor product of `x` and `y`.
     pub fn galerkin_2d(x: &SplineSpace, y: &SplineSpace) -> Result<Self> {
+        Self::galerkin_spline_2d(x, y, |n| vec![true; n])
+    }
+
+    /// Galerkin hierarchy over the DOFs with `keep(n)[i]` of every order (as in
+    /// [`Hierarchy::spline_1d`]), for a fine matrix of any density on those DOFs.
+    pub fn galerkin_spline_1d(
+        space: &SplineSpace,
+        keep: impl Fn(usize) -> Vec<bool>,
+    ) -> Result<Self> {
+        let levels = SplineLevels::one_dimensional(space);
+        let keeps: Vec<Vec<bool>> = levels.functions.iter().map(|&n| keep(n)).collect();
+        levels.galerkin(&keeps)
+    }
+
+    /// Galerkin hierarchy over the tensor-product DOFs kept by `keep` (as in
+    /// [`Hierarchy::spline_2d`]).
+    pub fn galerkin_spline_2d(
+        x: &SplineSpace,
+        y: &SplineSpace,
+        keep: impl Fn(usize) -> Vec<bool>,
+    ) -> Result<Self> {
         let levels = SplineLevels::two_dimensional(x, y)?;
-        let keeps = levels.tensor_keeps(x, y, |n| vec![true; n]);
+        let keeps = levels.tensor_keeps(x, y, keep);
         levels.galerkin(&keeps)
     }
 
