@@ -29,8 +29,14 @@ use std::time::{Duration, Instant};
 
 /// Body force of the right-hand side (SPEC §5.1).
 pub const BODY_FORCE: f64 = 9.81;
-/// Condition numbers are estimated up to this many DOFs (Lanczos keeps its basis).
-pub const MAX_CONDITION_DOFS: usize = 300_000;
+/// Condition numbers are estimated up to this many DOFs: Lanczos keeps its basis of up to
+/// [`CONDITION_MAX_STEPS`] vectors (at most 1 GB).
+pub const MAX_CONDITION_DOFS: usize = 125_000;
+/// Lanczos steps per extreme eigenvalue.
+pub const CONDITION_MAX_STEPS: usize = 1_000;
+/// Lanczos stops when the extreme Ritz values change by less than this (relative) over five
+/// steps; far below the 3 digits asked for.
+pub const CONDITION_TOLERANCE: f64 = 1e-7;
 /// Highest B-spline order of the study.
 pub const MAX_STUDY_ORDER: usize = 10;
 /// Most DOFs of one study matrix.
@@ -224,7 +230,12 @@ fn condition_number(problem: &StudyProblem, density: StudyDensity) -> Result<f64
         StudyDensity::Unit => {
             let mut factors = KroneckerFactors::new(&problem.geometry.unit_masses())?;
             let mut inverse = |r: &[f64], z: &mut [f64]| factors.solve(r, z);
-            condition::condition_number(a, Some(&mut inverse))?
+            condition::condition_number_with(
+                a,
+                Some(&mut inverse),
+                CONDITION_MAX_STEPS,
+                CONDITION_TOLERANCE,
+            )?
         }
         StudyDensity::Sine => {
             let mut direct = DirectCholesky::new();
@@ -236,7 +247,12 @@ fn condition_number(problem: &StudyProblem, density: StudyDensity) -> Result<f64
                     z.fill(f64::NAN);
                 }
             };
-            let estimate = condition::condition_number(a, Some(&mut inverse));
+            let estimate = condition::condition_number_with(
+                a,
+                Some(&mut inverse),
+                CONDITION_MAX_STEPS,
+                CONDITION_TOLERANCE,
+            );
             if let Some(err) = failed {
                 return Err(err);
             }
@@ -257,8 +273,16 @@ pub fn solver_study(
         for &cells in &options.cells {
             let problem = study_problem(options.dim, order, cells, options.density)?;
             let dofs = problem.matrix.rows;
+            // A spectrum too dense at its ends for Lanczos to settle (long 1D problems) leaves
+            // the condition number out with a warning; the solves still run.
             let condition = if dofs <= MAX_CONDITION_DOFS {
-                Some(condition_number(&problem, options.density)?)
+                match condition_number(&problem, options.density) {
+                    Ok(kappa) => Some(kappa),
+                    Err(err) => {
+                        eprintln!("warning: condition number at p = {order}, 1/h = {cells}: {err}");
+                        None
+                    }
+                }
             } else {
                 None
             };
