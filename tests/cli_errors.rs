@@ -345,9 +345,31 @@ fn unavailable_methods_name_their_key() {
     );
     expect_input_error(
         BAR,
-        &[TINY, "method.mass=consistent", "solver.kind=pmg"],
+        &[TINY, "method.mass=consistent", "solver.kind=multigrid"],
         &[],
-        &["`solver.kind`", "pmg", "not available"],
+        &["solver.kind", "multigrid"],
+    );
+    expect_input_error(
+        BAR,
+        &[
+            TINY,
+            "solver.kind=pmg_cg",
+            "solver.pre_smooth=2",
+            "solver.post_smooth=3",
+        ],
+        &[],
+        &["`solver.post_smooth`", "3", "symmetric"],
+    );
+    expect_input_error(
+        BAR,
+        &[
+            TINY,
+            "solver.kind=pmg",
+            "solver.pre_smooth=0",
+            "solver.post_smooth=0",
+        ],
+        &[],
+        &["`solver.pre_smooth`", "0"],
     );
     for points in ["1", "33"] {
         expect_input_error(
@@ -439,5 +461,26 @@ fn list_shows_the_builtin_scenarios() {
             "`tlsmpm list` does not list {name}:\n{}",
             o.stdout
         );
+    }
+}
+
+#[test]
+fn solver_study_rejects_bad_options_with_exit_code_2() {
+    let dir = tempdir();
+    let out = dir.path().join("study");
+    let out = out.to_string_lossy();
+    for (args, needles) in [
+        (vec!["--dim", "3"], vec!["`--dim`", "3"]),
+        (vec!["--solvers", "cg,lu"], vec!["`--solvers`", "lu"]),
+        (vec!["--orders", "0"], vec!["`--orders`", "0"]),
+        (vec!["--smoother", "sor"], vec!["`--smoother`", "sor"]),
+        (vec!["--density", "wavy"], vec!["`--density`", "wavy"]),
+        (vec!["--tolerance", "2"], vec!["`--tolerance`", "2"]),
+    ] {
+        let mut all = vec!["solver-study", "--out", &out];
+        all.extend(&args);
+        let o = tlsmpm(&all);
+        assert_eq!(o.code, 2, "{args:?}: {}", o.stderr);
+        assert_names(error_line(&o), &needles);
     }
 }

@@ -128,3 +128,42 @@ fn bad_options_are_input_errors() {
     assert!(err.to_string().contains("--cells"), "{err}");
     assert_eq!(err.exit_code(), 2);
 }
+
+#[test]
+fn p_multigrid_cycles_are_at_or_below_the_published_ones_for_p_up_to_3_and_h_independent() {
+    let mut opts = options(
+        2,
+        &[1, 2, 3],
+        &[8, 16, 32],
+        &[SolverKind::Pmg, SolverKind::PmgCg],
+    );
+    opts.config.smoother = tlsmpm::config::Smoother::SymmetricGaussSeidel;
+    let rows = solver_study(&opts, &mut |_, _, _| {}).expect("study runs");
+    for order in 1..=3 {
+        let mut previous = usize::MAX;
+        for cells in [8, 16, 32] {
+            let cycles = row(&rows, order, cells, SolverKind::Pmg)
+                .iterations
+                .expect("pmg converges");
+            let published = published::iterations("pmg", order, cells).expect("published");
+            assert!(
+                cycles <= published,
+                "p = {order}, 1/h = {cells}: {cycles} > {published}"
+            );
+            // h-independent: refining never costs more than one extra cycle.
+            assert!(
+                cycles <= previous.saturating_add(1),
+                "p = {order}, 1/h = {cells}"
+            );
+            previous = cycles;
+            // CG with one symmetric V-cycle as preconditioner needs no more.
+            let pmg_cg = row(&rows, order, cells, SolverKind::PmgCg)
+                .iterations
+                .expect("pmg_cg converges");
+            assert!(
+                pmg_cg <= cycles.max(3),
+                "p = {order}, 1/h = {cells}: {pmg_cg}"
+            );
+        }
+    }
+}
