@@ -17,22 +17,7 @@
 
 #[cfg(unix)]
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let options = match profile::Options::parse(&args) {
-        Ok(Some(options)) => options,
-        Ok(None) => {
-            println!("{}", profile::USAGE);
-            return;
-        }
-        Err(message) => {
-            eprintln!("error: {message}\n\n{}", profile::USAGE);
-            std::process::exit(2);
-        }
-    };
-    if let Err(message) = profile::run(&options) {
-        eprintln!("error: {message}");
-        std::process::exit(1);
-    }
+    common::main(profile::USAGE, profile::Options::parse, profile::run);
 }
 
 #[cfg(not(unix))]

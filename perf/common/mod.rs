@@ -152,3 +152,29 @@ pub fn print_tables(report: &pprof::Report) {
     print("self samples, by leaf frame", leaf);
     print("inclusive samples, tlsmpm functions", inclusive);
 }
+
+/// The shared `main` of the profiling examples: parse the arguments (`--help` prints
+/// `usage`; a bad argument prints the message and `usage`, exit 2), then run (a failure
+/// prints its message, exit 1).
+pub fn main<O>(
+    usage: &str,
+    parse: fn(&[String]) -> Result<Option<O>, String>,
+    run: fn(&O) -> Result<(), String>,
+) {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let options = match parse(&args) {
+        Ok(Some(options)) => options,
+        Ok(None) => {
+            println!("{usage}");
+            return;
+        }
+        Err(message) => {
+            eprintln!("error: {message}\n\n{usage}");
+            std::process::exit(2);
+        }
+    };
+    if let Err(message) = run(&options) {
+        eprintln!("error: {message}");
+        std::process::exit(1);
+    }
+}

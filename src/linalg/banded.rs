@@ -111,27 +111,12 @@ impl LinearSolver for BandedCholesky {
     }
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-        if b.len() != a.rows || x.len() != a.rows {
-            return Err(failure(format!(
-                "dimension mismatch: matrix {}x{}, rhs {}, x {}",
-                a.rows,
-                a.cols,
-                b.len(),
-                x.len()
-            )));
-        }
+        super::check_dimensions("banded", a, b, x)?;
         self.factor(a)?;
         self.solve_factored(b, x);
-        self.product.resize(b.len(), 0.0);
-        a.mul_vec(x, &mut self.product);
-        let (mut rr, mut bb) = (0.0, 0.0);
-        for (ri, bi) in self.product.iter().zip(b) {
-            rr += (bi - ri) * (bi - ri);
-            bb += bi * bi;
-        }
         Ok(SolveStats {
             iterations: 0,
-            relative_residual: if bb > 0.0 { (rr / bb).sqrt() } else { 0.0 },
+            relative_residual: super::relative_residual(a, x, b, &mut self.product),
         })
     }
 }

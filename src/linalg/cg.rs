@@ -133,15 +133,7 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         let n = b.len();
-        if a.rows != n || a.cols != n || x.len() != n {
-            return Err(self.failure(format!(
-                "dimension mismatch: matrix {}x{}, rhs {}, x {}",
-                a.rows,
-                a.cols,
-                n,
-                x.len()
-            )));
-        }
+        super::check_dimensions(self.preconditioner.solver_name(), a, b, x)?;
         let b_norm = dot(b, b).sqrt();
         if b_norm == 0.0 {
             x.fill(0.0);

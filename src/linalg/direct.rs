@@ -332,25 +332,10 @@ impl LinearSolver for DirectCholesky {
     }
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-        if a.rows != a.cols || b.len() != a.rows || x.len() != a.rows {
-            return Err(failure(format!(
-                "dimension mismatch: matrix {}x{}, rhs {}, x {}",
-                a.rows,
-                a.cols,
-                b.len(),
-                x.len()
-            )));
-        }
+        super::check_dimensions("direct", a, b, x)?;
         self.factor(a)?;
         self.solve_factored(b, x)?;
-        self.product.resize(b.len(), 0.0);
-        a.mul_vec(x, &mut self.product);
-        let (mut rr, mut bb) = (0.0, 0.0);
-        for (ri, bi) in self.product.iter().zip(b) {
-            rr += (bi - ri) * (bi - ri);
-            bb += bi * bi;
-        }
-        let relative_residual = if bb > 0.0 { (rr / bb).sqrt() } else { 0.0 };
+        let relative_residual = super::relative_residual(a, x, b, &mut self.product);
         if !relative_residual.is_finite() {
             return Err(failure(format!(
                 "non-finite residual {relative_residual}: the factor over- or underflowed"

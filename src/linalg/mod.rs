@@ -49,3 +49,42 @@ pub trait LinearSolver: Send {
     /// Solve `a x = b`. On entry `x` holds the initial guess; on exit, the solution.
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats>;
 }
+
+/// `Err(Error::Solver)` naming `solver` unless `a` is square and `b`, `x` have its size.
+pub(crate) fn check_dimensions(solver: &str, a: &CsrMatrix, b: &[f64], x: &[f64]) -> Result<()> {
+    if a.rows == a.cols && b.len() == a.rows && x.len() == a.rows {
+        return Ok(());
+    }
+    Err(crate::error::Error::Solver {
+        solver: solver.into(),
+        reason: format!(
+            "dimension mismatch: matrix {}x{}, rhs {}, x {}",
+            a.rows,
+            a.cols,
+            b.len(),
+            x.len()
+        ),
+    })
+}
+
+/// `||b - A x|| / ||b||` (0 for `b = 0`), with `product` as scratch for `A x`: the residual a
+/// direct solve reports.
+pub(crate) fn relative_residual(
+    a: &CsrMatrix,
+    x: &[f64],
+    b: &[f64],
+    product: &mut Vec<f64>,
+) -> f64 {
+    product.resize(b.len(), 0.0);
+    a.par_mul_vec(x, product);
+    let (mut rr, mut bb) = (0.0, 0.0);
+    for (ri, bi) in product.iter().zip(b) {
+        rr += (bi - ri) * (bi - ri);
+        bb += bi * bi;
+    }
+    if bb > 0.0 {
+        (rr / bb).sqrt()
+    } else {
+        0.0
+    }
+}

@@ -409,15 +409,7 @@ impl LinearSolver for PMultigrid {
     }
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-        if a.rows != b.len() || a.cols != b.len() || x.len() != b.len() {
-            return Err(failure(format!(
-                "dimension mismatch: matrix {}x{}, rhs {}, x {}",
-                a.rows,
-                a.cols,
-                b.len(),
-                x.len()
-            )));
-        }
+        super::check_dimensions("pmg", a, b, x)?;
         self.check_size(a)?;
         let tolerance = self.settings.tolerance;
         let b_norm = dot(b, b).sqrt();
