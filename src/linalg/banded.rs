@@ -14,6 +14,8 @@ use crate::error::{Error, Result};
 pub struct BandedCholesky {
     bandwidth: usize,
     factor: Vec<f64>,
+    /// Whether `factor` holds the factor of the last matrix given to [`BandedCholesky::factor`].
+    factored: bool,
     /// `A x` for the residual of the last solve.
     product: Vec<f64>,
 }
@@ -25,6 +27,7 @@ impl BandedCholesky {
 
     /// Factor `a` (lower half read, upper assumed symmetric).
     pub fn factor(&mut self, a: &CsrMatrix) -> Result<()> {
+        self.factored = false;
         let n = a.rows;
         if a.cols != n {
             return Err(failure(format!(
@@ -72,6 +75,7 @@ impl BandedCholesky {
                 }
             }
         }
+        self.factored = true;
         Ok(())
     }
 
@@ -113,6 +117,14 @@ impl LinearSolver for BandedCholesky {
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         super::check_dimensions("banded", a, b, x)?;
         self.factor(a)?;
+        self.resolve(a, b, x)
+    }
+
+    fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        super::check_dimensions("banded", a, b, x)?;
+        if !self.factored || self.factor.len() != a.rows * (self.bandwidth + 1) {
+            return self.solve(a, b, x);
+        }
         self.solve_factored(b, x);
         Ok(SolveStats {
             iterations: 0,
@@ -156,6 +168,32 @@ mod tests {
         b[0] = 0.0;
         BandedCholesky::new().solve(&a, &b, &mut x).unwrap();
         assert_eq!(x[0], 0.0);
+    }
+
+    #[test]
+    fn resolve_reuses_the_factor_of_the_last_solve() {
+        let mut a = CsrMatrix::band(5, 1);
+        for i in 0..5usize {
+            for j in i.saturating_sub(1)..=(i + 1).min(4) {
+                let k = a.band_index(i, j);
+                a.values[k] = if i == j { 4.0 } else { 1.0 };
+            }
+        }
+        let b = [1.0, 2.0, 3.0, 4.0, 5.0];
+        let mut solver = BandedCholesky::new();
+        let (mut first, mut again) = ([0.0; 5], [0.0; 5]);
+        solver.solve(&a, &b, &mut first).unwrap();
+        // `resolve` trusts the caller: it solves with the stored factor of `a`, not with
+        // the (here deliberately different) matrix it is handed.
+        let mut scaled = a.clone();
+        scaled.values.iter_mut().for_each(|v| *v *= 2.0);
+        solver.resolve(&scaled, &b, &mut again).unwrap();
+        assert_eq!(first, again);
+        // `solve` refactors.
+        solver.solve(&scaled, &b, &mut again).unwrap();
+        for (x, y) in first.iter().zip(&again) {
+            assert!((x - 2.0 * y).abs() < 1e-14);
+        }
     }
 
     #[test]

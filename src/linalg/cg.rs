@@ -86,6 +86,8 @@ pub struct Pcg<P> {
     preconditioned: Vec<f64>,
     direction: Vec<f64>,
     product: Vec<f64>,
+    /// Whether the preconditioner is set up for the matrix of the last solve.
+    prepared: bool,
 }
 
 /// Plain CG.
@@ -111,6 +113,7 @@ impl<P: Preconditioner> Pcg<P> {
             preconditioned: Vec::new(),
             direction: Vec::new(),
             product: Vec::new(),
+            prepared: false,
         }
     }
 
@@ -132,6 +135,18 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
     }
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        self.prepared = false;
+        self.run(a, b, x)
+    }
+
+    fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        self.run(a, b, x)
+    }
+}
+
+impl<P: Preconditioner> Pcg<P> {
+    /// CG from `x`; the preconditioner is set up unless `prepared` says it already is.
+    fn run(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         let n = b.len();
         super::check_dimensions(self.preconditioner.solver_name(), a, b, x)?;
         let b_norm = dot(b, b).sqrt();
@@ -154,7 +169,10 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
                 relative_residual: relative,
             });
         }
-        self.preconditioner.setup(a)?;
+        if !self.prepared {
+            self.preconditioner.setup(a)?;
+            self.prepared = true;
+        }
         let (r, z, d, q) = (
             &mut self.residual,
             &mut self.preconditioned,

@@ -334,6 +334,14 @@ impl LinearSolver for DirectCholesky {
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         super::check_dimensions("direct", a, b, x)?;
         self.factor(a)?;
+        self.resolve(a, b, x)
+    }
+
+    fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        super::check_dimensions("direct", a, b, x)?;
+        if !self.factored || self.pattern_rows != a.rows {
+            return self.solve(a, b, x);
+        }
         self.solve_factored(b, x)?;
         let relative_residual = super::relative_residual(a, x, b, &mut self.product);
         if !relative_residual.is_finite() {

@@ -48,6 +48,14 @@ pub trait LinearSolver: Send {
 
     /// Solve `a x = b`. On entry `x` holds the initial guess; on exit, the solution.
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats>;
+
+    /// Solve again with the matrix of the previous `solve`, which the caller guarantees is
+    /// unchanged (the time stepper's acceleration and velocity solves share one matrix per
+    /// step): solvers with a per-matrix set-up (factorisation, Galerkin levels, diagonal
+    /// scaling) reuse it. The default is [`LinearSolver::solve`].
+    fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        self.solve(a, b, x)
+    }
 }
 
 /// `Err(Error::Solver)` naming `solver` unless `a` is square and `b`, `x` have its size.

@@ -9,8 +9,9 @@
 //! the velocity (`method.mass`). DOFs that are fixed (Dirichlet) or carry no mass
 //! (`m_i <= 1e-12 max_j m_j`) are eliminated: their rows and columns of `M^C` are replaced
 //! by the identity and their values set to 0, so the solve acts on the active free DOFs
-//! only. The consistent solve goes through a [`LinearSolver`] (banded Cholesky or CG),
-//! warm-started from the previous step's acceleration / velocity.
+//! only. The consistent solve goes through a [`LinearSolver`] (`solver.kind`), warm-started
+//! from the previous step's acceleration / velocity; the second solve of a step (same
+//! matrix) reuses the solver's set-up via [`LinearSolver::resolve`].
 
 use crate::config::MassKind;
 use crate::error::Result;
@@ -31,6 +32,9 @@ pub struct MassSystem {
     constrained: Option<CsrMatrix>,
     rhs: Vec<f64>,
     product: Vec<f64>,
+    /// Whether the solver has already solved with this step's matrix (the second solve of
+    /// a step reuses its factorisation / levels / scaling through `resolve`).
+    solved_this_step: bool,
     /// Linear solves done, and their iterations.
     pub solves: usize,
     pub total_iterations: usize,
@@ -49,6 +53,7 @@ impl MassSystem {
             constrained: None,
             rhs: Vec::new(),
             product: Vec::new(),
+            solved_this_step: false,
             solves: 0,
             total_iterations: 0,
             max_iterations: 0,
@@ -79,6 +84,7 @@ impl MassSystem {
         for &i in fixed {
             self.keep[i] = false;
         }
+        self.solved_this_step = false;
         if let Some(matrix) = &fields.consistent_mass {
             let constrained = self.constrained.get_or_insert_with(|| matrix.clone());
             constrained.values.copy_from_slice(&matrix.values);
@@ -174,7 +180,12 @@ impl MassSystem {
                 *xi = 0.0;
             }
         }
-        let stats = self.solver.solve(matrix, &self.rhs, x)?;
+        let stats = if self.solved_this_step {
+            self.solver.resolve(matrix, &self.rhs, x)?
+        } else {
+            self.solver.solve(matrix, &self.rhs, x)?
+        };
+        self.solved_this_step = true;
         self.solves += 1;
         self.total_iterations += stats.iterations;
         self.max_iterations = self.max_iterations.max(stats.iterations);

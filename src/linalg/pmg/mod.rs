@@ -224,6 +224,8 @@ pub struct PMultigrid {
     coarse: CoarseState,
     /// Post-smooth with the adjoint smoother (symmetric V-cycle).
     adjoint_post: bool,
+    /// Whether the levels are set up for the matrix of the last solve.
+    prepared: bool,
 }
 
 impl PMultigrid {
@@ -234,6 +236,7 @@ impl PMultigrid {
             work: Vec::new(),
             coarse: CoarseState::default(),
             adjoint_post: false,
+            prepared: false,
         }
     }
 
@@ -409,6 +412,18 @@ impl LinearSolver for PMultigrid {
     }
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        self.prepared = false;
+        self.run(a, b, x)
+    }
+
+    fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+        self.run(a, b, x)
+    }
+}
+
+impl PMultigrid {
+    /// V-cycles from `x`; the levels are set up unless `prepared` says they already are.
+    fn run(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         super::check_dimensions("pmg", a, b, x)?;
         self.check_size(a)?;
         let tolerance = self.settings.tolerance;
@@ -432,7 +447,10 @@ impl LinearSolver for PMultigrid {
                 relative_residual: relative,
             });
         }
-        self.setup(a)?;
+        if !self.prepared {
+            self.setup(a)?;
+            self.prepared = true;
+        }
         for cycle in 1..=self.settings.max_cycles {
             self.cycle(a, x, b, Some(tolerance))?;
             let r = &mut self.work[0].residual;
