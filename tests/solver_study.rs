@@ -167,3 +167,37 @@ fn p_multigrid_cycles_are_at_or_below_the_published_ones_for_p_up_to_3_and_h_ind
         }
     }
 }
+
+#[test]
+fn variable_density_levels_are_rediscretised_and_keep_the_counts() {
+    // rho = 1 + 0.9 sin 2 pi x sin 2 pi y: every p-multigrid level is re-assembled with the
+    // density, so the cycle counts stay those of the unit-density matrix.
+    let mut opts = options(
+        2,
+        &[3],
+        &[16, 32],
+        &[
+            SolverKind::Pmg,
+            SolverKind::PmgCg,
+            SolverKind::Kron,
+            SolverKind::Cg,
+        ],
+    );
+    opts.density = StudyDensity::Sine;
+    opts.config.smoother = tlsmpm::config::Smoother::SymmetricGaussSeidel;
+    let rows = solver_study(&opts, &mut |_, _, _| {}).expect("study runs");
+    for cells in [16, 32] {
+        let count = |kind| row(&rows, 3, cells, kind).iterations.expect("converges");
+        assert!(
+            count(SolverKind::Pmg) <= 12,
+            "1/h = {cells}: {}",
+            count(SolverKind::Pmg)
+        );
+        assert!(count(SolverKind::PmgCg) <= 6, "1/h = {cells}");
+        assert!(count(SolverKind::Kron) <= 7, "1/h = {cells}");
+        assert!(
+            count(SolverKind::Cg) > 5 * count(SolverKind::Kron),
+            "1/h = {cells}"
+        );
+    }
+}

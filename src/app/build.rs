@@ -116,6 +116,7 @@ fn mass_solver(scenario: &Scenario, grid: &Grid) -> Result<Box<dyn LinearSolver>
         directions: vec![space],
         boundary_dropped: false,
         coarse_operators: CoarseOperators::Galerkin,
+        density: None,
     };
     build_solver(&scenario.solver, &geometry)
 }

@@ -8,7 +8,7 @@
 
 use crate::config::{Smoother as ConfigSmoother, SolverConfig, SolverKind};
 use crate::error::{Error, Result};
-use crate::linalg::assembly::{interior, mass_1d, SplineSpace};
+use crate::linalg::assembly::{interior, mass_1d, mass_2d, QuadraturePoint, SplineSpace};
 use crate::linalg::{
     BandedCholesky, CoarseOperators, CoarseSolver, ConjugateGradient, CsrMatrix, DirectCholesky,
     Hierarchy, Jacobi, KroneckerFactors, KroneckerPreconditioner, LinearSolver, PMultigrid, Pcg,
@@ -28,12 +28,18 @@ pub const MAX_CYCLES: usize = 2_000;
 /// `coarse_operators` says how p-multigrid gets its coarse levels: re-discretised unit-density
 /// mass matrices (the published set-up, right for a unit-density fine matrix) or Galerkin
 /// products `I^T A I` of the fine matrix handed to each solve (any density: the MPM case).
-#[derive(Clone, Debug, PartialEq)]
+/// `density` (None: 1) is the density of the re-discretised coarse levels; the MPM step,
+/// which has no density function, uses Galerkin levels instead.
+#[derive(Clone, Debug)]
 pub struct SolverGeometry {
     pub directions: Vec<SplineSpace>,
     pub boundary_dropped: bool,
     pub coarse_operators: CoarseOperators,
+    pub density: Option<Density>,
 }
+
+/// A density at the quadrature points.
+pub type Density = fn(&QuadraturePoint) -> f64;
 
 impl SolverGeometry {
     /// Number of DOFs of the matrix.
@@ -42,6 +48,43 @@ impl SolverGeometry {
             .iter()
             .map(|s| s.functions() - if self.boundary_dropped { 2 } else { 0 })
             .product()
+    }
+
+    /// Which DOFs of a direction with `n` functions the matrices keep.
+    fn keep(&self, n: usize) -> Vec<bool> {
+        if self.boundary_dropped {
+            interior(n)
+        } else {
+            vec![true; n]
+        }
+    }
+
+    /// The mass matrix of B-splines of `order` on the spans of `directions` with density
+    /// `density` (None: 1; `order + 2` Gauss points per span and direction), restricted
+    /// like the DOFs.
+    pub fn mass_matrix(&self, order: usize, density: Option<Density>) -> Result<CsrMatrix> {
+        let rho: Density = density.unwrap_or(|_| 1.0);
+        match self.directions.as_slice() {
+            [x] => {
+                let x = x.with_order(order);
+                let keep = self.keep(x.functions());
+                Ok(mass_1d(&x, order + 2, rho).submatrix(&keep, &keep))
+            }
+            [x, y] => {
+                let (x, y) = (x.with_order(order), y.with_order(order));
+                let (keep_x, keep_y) = (self.keep(x.functions()), self.keep(y.functions()));
+                let keep: Vec<bool> = keep_y
+                    .iter()
+                    .flat_map(|&ky| keep_x.iter().map(move |&kx| kx && ky))
+                    .collect();
+                Ok(mass_2d(&x, &y, order + 2, rho).submatrix(&keep, &keep))
+            }
+            directions => Err(Error::invalid(
+                "--dim",
+                directions.len(),
+                "mass matrices in 1 or 2 dimensions only",
+            )),
+        }
     }
 
     /// The unit-density 1D mass matrix of each direction, restricted like the DOFs.
@@ -107,27 +150,46 @@ pub fn build_solver(
 /// hierarchies always use symmetric transfers (`R = I^T`); re-discretised ones use
 /// `transfers` (published for the standalone V-cycle, symmetric for the preconditioner).
 fn hierarchy(geometry: &SolverGeometry, transfers: TransferKind) -> Result<Hierarchy> {
-    let keep = |n: usize| {
-        if geometry.boundary_dropped {
-            interior(n)
-        } else {
-            vec![true; n]
+    let keep = |n: usize| geometry.keep(n);
+    let unit = match (geometry.directions.as_slice(), geometry.coarse_operators) {
+        ([x], CoarseOperators::Rediscretised) => Hierarchy::spline_1d(x, keep, transfers)?,
+        ([x, y], CoarseOperators::Rediscretised) => Hierarchy::spline_2d(x, y, keep, transfers)?,
+        ([x], CoarseOperators::Galerkin) => return Hierarchy::galerkin_spline_1d(x, keep),
+        ([x, y], CoarseOperators::Galerkin) => return Hierarchy::galerkin_spline_2d(x, y, keep),
+        (directions, _) => {
+            return Err(Error::invalid(
+                "solver.kind",
+                "\"pmg\"",
+                format!(
+                    "p-multigrid needs 1 or 2 directions, got {}",
+                    directions.len()
+                ),
+            ))
         }
     };
-    match (geometry.directions.as_slice(), geometry.coarse_operators) {
-        ([x], CoarseOperators::Rediscretised) => Hierarchy::spline_1d(x, keep, transfers),
-        ([x, y], CoarseOperators::Rediscretised) => Hierarchy::spline_2d(x, y, keep, transfers),
-        ([x], CoarseOperators::Galerkin) => Hierarchy::galerkin_spline_1d(x, keep),
-        ([x, y], CoarseOperators::Galerkin) => Hierarchy::galerkin_spline_2d(x, y, keep),
-        (directions, _) => Err(Error::invalid(
-            "solver.kind",
-            "\"pmg\"",
-            format!(
-                "p-multigrid needs 1 or 2 directions, got {}",
-                directions.len()
-            ),
-        )),
-    }
+    let Some(density) = geometry.density else {
+        return Ok(unit);
+    };
+    // Re-discretise every level with the density; the transfers are geometric (lumped
+    // unit-density masses) and stay.
+    let order = geometry.directions.first().map_or(1, |s| s.order);
+    let levels = unit.levels();
+    let operators = (0..levels)
+        .map(|l| geometry.mass_matrix(order - l, Some(density)))
+        .collect::<Result<Vec<_>>>()?;
+    let missing = || Error::invalid("solver.kind", "\"pmg\"", "incomplete p-multigrid hierarchy");
+    let prolongations = (0..levels - 1)
+        .map(|l| unit.prolongation(l).cloned().ok_or_else(missing))
+        .collect::<Result<Vec<_>>>()?;
+    let restrictions = match transfers {
+        TransferKind::Symmetric => None,
+        TransferKind::Published => Some(
+            (0..levels - 1)
+                .map(|l| unit.restriction(l).cloned().ok_or_else(missing))
+                .collect::<Result<Vec<_>>>()?,
+        ),
+    };
+    Hierarchy::rediscretised(operators, prolongations, restrictions)
 }
 
 /// V-cycle settings from `[solver]`: smoother, sweeps and tolerance. The coarse solve is

@@ -19,7 +19,7 @@ pub mod published;
 use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{SolverConfig, SolverKind};
 use crate::error::{Error, Result};
-use crate::linalg::assembly::{interior, load_1d, mass_1d, mass_2d, SplineSpace};
+use crate::linalg::assembly::{interior, load_1d, QuadraturePoint, SplineSpace};
 use crate::linalg::{condition, CoarseOperators, CsrMatrix, DirectCholesky, KroneckerFactors};
 use crate::output::plot::{loglog_plot, Axes, Series, Style};
 use crate::output::write_atomic;
@@ -145,6 +145,17 @@ pub struct SolverStudyRow {
     pub relative_residual: f64,
 }
 
+/// `rho = 1 + 0.9 sin 2 pi x`.
+fn sine_density_1d(q: &QuadraturePoint) -> f64 {
+    1.0 + 0.9 * (2.0 * std::f64::consts::PI * q.x[0]).sin()
+}
+
+/// `rho = 1 + 0.9 sin 2 pi x sin 2 pi y`.
+fn sine_density_2d(q: &QuadraturePoint) -> f64 {
+    let tau = 2.0 * std::f64::consts::PI;
+    1.0 + 0.9 * (tau * q.x[0]).sin() * (tau * q.x[1]).sin()
+}
+
 /// The study problem at one order and cell count: the matrix with boundary DOFs dropped,
 /// the load vector and the geometry the structured solvers need.
 pub struct StudyProblem {
@@ -175,45 +186,31 @@ fn study_problem(
         .zip(&keep)
         .filter_map(|(f, &k)| k.then_some(f))
         .collect();
-    let tau = 2.0 * std::f64::consts::PI;
     let geometry = SolverGeometry {
         directions: vec![space; dim],
         boundary_dropped: true,
-        coarse_operators: match density {
-            StudyDensity::Unit => CoarseOperators::Rediscretised,
-            StudyDensity::Sine => CoarseOperators::Galerkin,
+        coarse_operators: CoarseOperators::Rediscretised,
+        density: match density {
+            StudyDensity::Unit => None,
+            StudyDensity::Sine if dim == 1 => Some(sine_density_1d),
+            StudyDensity::Sine => Some(sine_density_2d),
         },
     };
-    let (matrix, rhs) = match (dim, density) {
-        (1, StudyDensity::Unit) => (geometry.unit_masses().remove(0), load),
-        (1, StudyDensity::Sine) => (
-            mass_1d(&space, order + 2, |q| 1.0 + 0.9 * (tau * q.x[0]).sin())
-                .submatrix(&keep, &keep),
-            load,
-        ),
-        (_, density) => {
-            let rhs: Vec<f64> = load
-                .iter()
-                .flat_map(|&fy| load.iter().map(move |&fx| fx * fy))
-                .collect();
-            let matrix = match density {
-                StudyDensity::Unit => {
-                    let m = geometry.unit_masses().remove(0);
-                    m.kron(&m)
-                }
-                StudyDensity::Sine => {
-                    let keep2: Vec<bool> = keep
-                        .iter()
-                        .flat_map(|&ky| keep.iter().map(move |&kx| kx && ky))
-                        .collect();
-                    mass_2d(&space, &space, order + 2, |q| {
-                        1.0 + 0.9 * (tau * q.x[0]).sin() * (tau * q.x[1]).sin()
-                    })
-                    .submatrix(&keep2, &keep2)
-                }
-            };
-            (matrix, rhs)
+    let rhs: Vec<f64> = if dim == 1 {
+        load
+    } else {
+        load.iter()
+            .flat_map(|&fy| load.iter().map(move |&fx| fx * fy))
+            .collect()
+    };
+    let matrix = match (dim, geometry.density) {
+        // Unit density: exactly the Kronecker product of the 1D matrices (SPEC §5.1).
+        (1, None) => geometry.unit_masses().remove(0),
+        (_, None) => {
+            let m = geometry.unit_masses().remove(0);
+            m.kron(&m)
         }
+        (_, Some(rho)) => geometry.mass_matrix(order, Some(rho))?,
     };
     Ok(StudyProblem {
         geometry,
