@@ -1,0 +1,142 @@
+//! Scenario files: the stable TOML keys of DESIGN §3, `--set KEY=VALUE` overrides with
+//! dotted keys, and validation.
+//!
+//! Parsing goes text → `toml::Table` → overrides applied → typed [`Scenario`]
+//! (`deny_unknown_fields` everywhere), so an unknown key is an error naming its full dotted
+//! path, whether it came from the file or from `--set`. [`Scenario::validate`] then checks
+//! ranges (positive sizes, moduli, time step) and names the key and value it rejects.
+//!
+//! Files: `schema.rs` (the typed sections and their defaults), `parse.rs` (text, overrides,
+//! schema errors), `validate.rs` (ranges and combinations, [`Scenario::validate`]).
+
+mod parse;
+mod schema;
+mod validate;
+
+pub use parse::{apply_override, display_float, from_str, load, require_positive};
+pub use schema::*;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Error;
+
+    const BAR: &str = r#"
+[problem]
+kind = "vibrating_bar"
+[grid]
+cells = 20
+[particles]
+per_cell = 12
+[time]
+dt = 1e-7
+end = 1.9e-6
+"#;
+
+    #[test]
+    fn defaults_and_steps() {
+        let s = from_str(BAR, "bar", &[]).unwrap();
+        assert_eq!(s.grid.cells, 20);
+        assert_eq!(s.material.model, MaterialModel::Linear);
+        assert_eq!(s.method.scheme, Scheme::Musl);
+        assert_eq!(s.n_steps(), 19);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn overrides_use_dotted_keys_and_toml_values() {
+        let o = [
+            "grid.cells=40".to_string(),
+            "method.scheme=usl".to_string(),
+            "time.dt=1e-8".to_string(),
+            "problem.v0=1".to_string(),
+        ];
+        let s = from_str(BAR, "bar", &o).unwrap();
+        assert_eq!(s.grid.cells, 40);
+        assert_eq!(s.method.scheme, Scheme::Usl);
+        assert_eq!(s.time.dt, 1e-8);
+        assert_eq!(s.problem.v0, Some(1.0));
+    }
+
+    #[test]
+    fn unknown_keys_name_their_dotted_path() {
+        let err = from_str(BAR, "bar", &["grid.celss=3".to_string()]).unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownKey { key, .. } if key == "grid.celss"),
+            "{err}"
+        );
+        assert!(err.to_string().contains("--set"), "{err}");
+        let err = from_str(BAR, "bar", &["solvr.kind=cg".to_string()]).unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownKey { key, .. } if key == "solvr"),
+            "{err}"
+        );
+        let text = format!("{BAR}\n[material]\nyoung = 3.0\n");
+        let err = from_str(&text, "bar", &[]).unwrap_err();
+        assert!(
+            matches!(&err, Error::UnknownKey { key, .. } if key == "material.young"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn invalid_values_name_the_key() {
+        for (set, key) in [
+            ("grid.cells=0", "grid.cells"),
+            ("particles.per_cell=0", "particles.per_cell"),
+            ("material.density=-1", "material.density"),
+            ("material.youngs_modulus=0", "material.youngs_modulus"),
+            ("time.dt=0", "time.dt"),
+            ("time.dt=nan", "time.dt"),
+            ("time.dt=1e-300", "time.dt"),
+            ("grid.cells=1000000000000", "grid.cells"),
+            ("particles.per_cell=4611686018427387904", "grid.cells"),
+            (
+                "particles.per_cell=18446744073709551615",
+                "particles.per_cell",
+            ),
+        ] {
+            let err = from_str(BAR, "bar", &[set.to_string()])
+                .and_then(|s| s.validate())
+                .unwrap_err();
+            assert!(err.to_string().contains(key), "{set}: {err}");
+            assert!(err.is_input_error());
+        }
+    }
+
+    #[test]
+    fn subpoints_need_the_direct_mapping() {
+        let with = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            from_str(BAR, "bar", &sets).and_then(|s| s.validate())
+        };
+        with(&["method.basis=ddmpm", "method.subpoints=4"]).unwrap();
+        with(&["method.subpoints=1", "method.mass=consistent"]).unwrap();
+        for reconstruction in ["tls", "cubic_spline"] {
+            let err = with(&[
+                "method.subpoints=4",
+                &format!("method.reconstruction={reconstruction}"),
+            ])
+            .unwrap_err();
+            let text = err.to_string();
+            assert!(text.contains("method.subpoints"), "{text}");
+            assert!(text.contains(reconstruction), "{text}");
+            assert!(err.is_input_error());
+        }
+        let err = with(&["method.subpoints=1000000"]).unwrap_err();
+        assert!(err.to_string().contains("method.subpoints"), "{err}");
+    }
+
+    #[test]
+    fn wrong_types_and_bad_overrides_are_errors() {
+        let err = from_str(BAR, "bar", &["grid.cells=-5".to_string()]).unwrap_err();
+        assert!(err.to_string().contains("grid.cells"), "{err}");
+        let err = from_str(BAR, "bar", &["grid.cells".to_string()]).unwrap_err();
+        assert!(err.to_string().contains("KEY=VALUE"), "{err}");
+        let err = from_str(BAR, "bar", &["grid.cells.x=1".to_string()]).unwrap_err();
+        assert!(err.to_string().contains("not a table"), "{err}");
+        let err = from_str("[grid]\ncells = 3\n[problem\nkind=1", "bad", &[]).unwrap_err();
+        assert!(matches!(err, Error::Parse { .. }));
+        assert!(err.to_string().contains("line 3"), "{err}");
+    }
+}

@@ -1,0 +1,489 @@
+//! The typed scenario sections of DESIGN §3 with their defaults and limits.
+
+use serde::{Deserialize, Serialize};
+
+/// A complete scenario (DESIGN §3).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub problem: ProblemConfig,
+    #[serde(default)]
+    pub material: MaterialConfig,
+    pub grid: GridConfig,
+    pub particles: ParticlesConfig,
+    #[serde(default)]
+    pub method: MethodConfig,
+    #[serde(default)]
+    pub solver: SolverConfig,
+    pub time: TimeConfig,
+    #[serde(default)]
+    pub output: OutputConfig,
+}
+
+/// The benchmark problems (SPEC §6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProblemKind {
+    /// SPEC §6.2 / §6.3.
+    VibratingBar,
+    /// SPEC §6.4.
+    ColumnCompaction,
+    /// SPEC §6.6 (two-phase; not available yet).
+    Consolidation,
+    /// SPEC §6.5 (neo-Hookean MMS bar; not available yet).
+    MmsBar,
+}
+
+/// `[problem]`: which benchmark and its own parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemConfig {
+    pub kind: ProblemKind,
+    /// Length (height) of the bar / column in m; default per problem.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// Vibrating bar: maximum initial velocity in m/s (default 0.28).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub v0: Option<f64>,
+    /// Column compaction: final signed body acceleration in m/s² (default -200).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f64>,
+    /// What the errors are measured against: the exact solution (default) or the
+    /// updated-Lagrangian FEM reference.
+    #[serde(default)]
+    pub reference: ReferenceKind,
+    /// Nodes (DOFs) of the ULFEM reference (default 120).
+    #[serde(default = "default_reference_dofs")]
+    pub reference_dofs: usize,
+}
+
+/// `problem.reference`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceKind {
+    /// The problem's exact solution (none for the large-strain bar).
+    #[default]
+    Exact,
+    /// The updated-Lagrangian FEM solution with `problem.reference_dofs` nodes (SPEC §6.3).
+    Ulfem,
+}
+
+fn default_reference_dofs() -> usize {
+    120
+}
+
+/// Constitutive models (SPEC §1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialModel {
+    /// Small strain, linear elastic: `dsigma = E deps`.
+    #[default]
+    Linear,
+    /// Large strain (Hill): `dsigma = (E - sigma) deps`.
+    Hill,
+    /// 1D neo-Hookean (not available yet).
+    NeoHookean,
+    /// Saturated two-phase soil (not available yet).
+    TwoPhase,
+}
+
+/// `[material]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialConfig {
+    #[serde(default)]
+    pub model: MaterialModel,
+    /// Initial density in kg/m³.
+    #[serde(default = "default_density")]
+    pub density: f64,
+    /// Young's modulus in Pa.
+    #[serde(default = "default_youngs_modulus")]
+    pub youngs_modulus: f64,
+}
+
+fn default_density() -> f64 {
+    2000.0
+}
+fn default_youngs_modulus() -> f64 {
+    7.0e6
+}
+
+impl Default for MaterialConfig {
+    fn default() -> Self {
+        Self {
+            model: MaterialModel::default(),
+            density: default_density(),
+            youngs_modulus: default_youngs_modulus(),
+        }
+    }
+}
+
+/// `[grid]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridConfig {
+    /// Number of cells (knot spans).
+    pub cells: usize,
+}
+
+/// `[particles]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesConfig {
+    /// Initial particles per cell, placed at the centres of equal sub-cells.
+    pub per_cell: usize,
+}
+
+/// Grid bases (SPEC §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BasisKind {
+    /// Piecewise-linear hat functions (standard MPM).
+    #[default]
+    Linear,
+    Ddmpm,
+    Bspline,
+    Gimp,
+    Cpdi,
+}
+
+/// Particle-to-grid reconstructions (SPEC §4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ReconstructionKind {
+    /// Direct particle quadrature (standard MPM).
+    #[default]
+    None,
+    Tls,
+    CubicSpline,
+    Mls,
+    Imls,
+}
+
+impl ReconstructionKind {
+    /// The scenario value (`method.reconstruction`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Tls => "tls",
+            Self::CubicSpline => "cubic_spline",
+            Self::Mls => "mls",
+            Self::Imls => "imls",
+        }
+    }
+}
+
+/// Mass matrix used to turn forces and momenta into accelerations and velocities.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MassKind {
+    /// Row-sum lumped (diagonal).
+    #[default]
+    Lumped,
+    Consistent,
+}
+
+/// Time-stepping schemes (SPEC §2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Scheme {
+    /// Modified update-stress-last: grid velocities from the updated particle velocities.
+    #[default]
+    Musl,
+    /// Update-stress-last: grid velocities straight from `v_i += dt a_i`.
+    Usl,
+}
+
+/// `[method]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MethodConfig {
+    #[serde(default)]
+    pub basis: BasisKind,
+    /// B-spline order p >= 1.
+    #[serde(default = "default_order")]
+    pub order: usize,
+    #[serde(default)]
+    pub reconstruction: ReconstructionKind,
+    #[serde(default)]
+    pub mass: MassKind,
+    #[serde(default)]
+    pub scheme: Scheme,
+    /// DDMPM sub-points per particle (0 = off; SPEC §3.3). Needs `reconstruction = "none"`.
+    #[serde(default)]
+    pub subpoints: usize,
+    /// Mass matrix of the acceleration solve (SPEC §2 step 2); `method.mass` is the one of
+    /// the velocity mapping (step 4). Default: see [`MethodConfig::acceleration_mass`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceleration_mass: Option<MassKind>,
+    /// Gauss points per cell of reconstructions (0 = automatic: for TLS enough to integrate
+    /// the consistent mass matrix of the quadratic reconstruction exactly, `p + 2` for basis
+    /// degree `p`; for the cubic spline 2 points on each half cell, SPEC §4.2). For the
+    /// cubic spline a non-zero value is the number of points per half cell.
+    #[serde(default)]
+    pub gauss_points: usize,
+    /// Remedy for cells whose least-squares fit is degenerate.
+    #[serde(default)]
+    pub degenerate_cells: DegenerateRemedy,
+    /// Which particles make up the conserved cell totals of a TLS fit.
+    #[serde(default)]
+    pub cell_totals: CellTotals,
+    /// How DDMPM computes its node integrals `V_j`, `G_ji`. Default: see
+    /// [`MethodConfig::node_integrals`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node_integrals: Option<NodeIntegrals>,
+}
+
+/// `method.cell_totals`: how the conserved totals `c_e` (mass, momentum) of the
+/// conservative TLS fits are split between cells (SPEC §4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CellTotals {
+    /// Each particle counts wholly in the cell of its centre (the published method).
+    Centres,
+    /// Each particle counts in every cell its domain `[x_p - V_p/2, x_p + V_p/2]` overlaps,
+    /// with the overlapping fraction: still exactly conservative, and continuous when a
+    /// particle crosses a face (no jump of the cell masses), which keeps runs with 1–3
+    /// particles per cell stable. The default.
+    #[default]
+    Domains,
+}
+
+/// `method.node_integrals`: the quadrature of the DDMPM node integrals (SPEC §3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeIntegrals {
+    /// Particle quadrature `sum_p V_p ...`, as in the original DDMPM.
+    Particles,
+    /// Exact integrals over the material domain (the cells holding particles, clipped to
+    /// the material extent), as the Gauss quadrature of a reconstruction integrates.
+    Domain,
+    /// Quadrature by the `method.subpoints` sub-points of every particle (Dhakal & Zhang's
+    /// sub-points, SPEC §3.3): from particle quadrature (1 sub-point) towards the exact
+    /// domain integrals as the count grows.
+    Subpoints,
+}
+
+/// `method.degenerate_cells` (SPEC §4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DegenerateRemedy {
+    /// Neighbour reconstructions evaluated at the shared faces as extra data points
+    /// (falling back to order reduction when that is not enough).
+    #[default]
+    VirtualPoints,
+    /// Drop `psi_3`, then `psi_2`.
+    OrderReduction,
+}
+
+fn default_order() -> usize {
+    2
+}
+
+impl Default for MethodConfig {
+    fn default() -> Self {
+        Self {
+            basis: BasisKind::default(),
+            order: default_order(),
+            reconstruction: ReconstructionKind::default(),
+            mass: MassKind::default(),
+            scheme: Scheme::default(),
+            subpoints: 0,
+            acceleration_mass: None,
+            node_integrals: None,
+            cell_totals: CellTotals::default(),
+            gauss_points: 0,
+            degenerate_cells: DegenerateRemedy::default(),
+        }
+    }
+}
+
+impl MethodConfig {
+    /// `method.node_integrals` if given, else particle quadrature for the direct mapping
+    /// (sub-point quadrature with sub-points) and exact domain integrals for reconstructions (which replace particle quadrature
+    /// by Gauss quadrature everywhere; this reproduces the published DDMPM-TLS error).
+    /// With `method.subpoints > 0` the default is sub-point quadrature.
+    pub fn node_integrals(&self) -> NodeIntegrals {
+        self.node_integrals.unwrap_or(match self.reconstruction {
+            ReconstructionKind::None if self.subpoints > 0 => NodeIntegrals::Subpoints,
+            ReconstructionKind::None => NodeIntegrals::Particles,
+            _ => NodeIntegrals::Domain,
+        })
+    }
+
+    /// The mass matrix of the acceleration solve: `method.acceleration_mass` if given,
+    /// else the same as `method.mass`.
+    pub fn acceleration_mass(&self) -> MassKind {
+        self.acceleration_mass.unwrap_or(self.mass)
+    }
+}
+
+/// Linear solvers for the consistent mass matrix (SPEC §5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    /// Plain conjugate gradients.
+    Cg,
+    /// Jacobi-preconditioned CG.
+    Pcg,
+    /// p-multigrid V-cycles over the B-spline orders `p, p-1, ..., 1`.
+    Pmg,
+    /// CG preconditioned by one symmetric p-multigrid V-cycle.
+    #[serde(alias = "pmg-cg")]
+    PmgCg,
+    /// Sparse Cholesky (faer), symbolic factorisation reused while the pattern holds.
+    Direct,
+    /// Banded Cholesky: exact and `O(N p^2)` in 1D, the default.
+    #[default]
+    Banded,
+    /// CG preconditioned by the diagonally scaled Kronecker (constant-density) inverse.
+    Kron,
+}
+
+impl SolverKind {
+    /// Every kind, in the order of the tables.
+    pub const ALL: [SolverKind; 7] = [
+        SolverKind::Cg,
+        SolverKind::Pcg,
+        SolverKind::Pmg,
+        SolverKind::PmgCg,
+        SolverKind::Direct,
+        SolverKind::Banded,
+        SolverKind::Kron,
+    ];
+
+    /// The scenario spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Cg => "cg",
+            SolverKind::Pcg => "pcg",
+            SolverKind::Pmg => "pmg",
+            SolverKind::PmgCg => "pmg_cg",
+            SolverKind::Direct => "direct",
+            SolverKind::Banded => "banded",
+            SolverKind::Kron => "kron",
+        }
+    }
+
+    /// Parse a scenario spelling (`pmg-cg` is accepted for `pmg_cg`).
+    pub fn parse(name: &str) -> Option<Self> {
+        let name = name.trim().replace('-', "_");
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+}
+
+/// Smoothers of the p-multigrid V-cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Smoother {
+    /// Damped Jacobi.
+    Jacobi,
+    /// Forward Gauss–Seidel.
+    #[default]
+    GaussSeidel,
+    /// Forward then backward Gauss–Seidel.
+    SymmetricGaussSeidel,
+}
+
+/// Most smoothing sweeps per V-cycle (`pre_smooth + post_smooth`).
+pub const MAX_SMOOTHING_SWEEPS: usize = 1000;
+
+/// `[solver]`: used when `method.mass = "consistent"`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverConfig {
+    #[serde(default)]
+    pub kind: SolverKind,
+    /// Relative residual `||r|| / ||r0||` at which iterative solvers stop.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    #[serde(default)]
+    pub smoother: Smoother,
+    #[serde(default = "default_smooth")]
+    pub pre_smooth: usize,
+    #[serde(default = "default_smooth")]
+    pub post_smooth: usize,
+}
+
+fn default_tolerance() -> f64 {
+    1e-8
+}
+fn default_smooth() -> usize {
+    8
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        Self {
+            kind: SolverKind::default(),
+            tolerance: default_tolerance(),
+            smoother: Smoother::default(),
+            pre_smooth: default_smooth(),
+            post_smooth: default_smooth(),
+        }
+    }
+}
+
+/// `[time]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeConfig {
+    /// Time step in s.
+    pub dt: f64,
+    /// End time in s; the run takes `round(end / dt)` steps.
+    pub end: f64,
+}
+
+/// At which time the exact velocity is evaluated for the error measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityReference {
+    /// `t - dt/2`: Euler–Cromer particle velocities are staggered half a step behind the
+    /// positions, so this removes the first-order time error (SPEC §6.2 measurement note).
+    #[default]
+    HalfStep,
+    /// `t`, the end of the last step.
+    End,
+}
+
+/// `[output]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputConfig {
+    /// Intermediate particle snapshots, evenly spread over the run (0 = final state only).
+    #[serde(default)]
+    pub snapshots: usize,
+    /// VTK output (not available yet).
+    #[serde(default)]
+    pub vtk: bool,
+    /// Write SVG plots.
+    #[serde(default = "default_true")]
+    pub plots: bool,
+    /// Time at which the exact velocity is evaluated.
+    #[serde(default)]
+    pub velocity_reference: VelocityReference,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        Self {
+            snapshots: 0,
+            vtk: false,
+            plots: true,
+            velocity_reference: VelocityReference::default(),
+        }
+    }
+}
+
+/// Largest particle count accepted (about 16 GB of particle arrays).
+pub const MAX_PARTICLES: usize = 200_000_000;
+
+/// Largest `method.subpoints` accepted.
+pub const MAX_SUBPOINTS: usize = 65_536;
+
+/// Largest number of time steps accepted.
+pub const MAX_STEPS: usize = 10_000_000_000;
