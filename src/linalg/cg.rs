@@ -57,7 +57,7 @@ impl Preconditioner for Jacobi {
         "pcg"
     }
     fn setup(&mut self, a: &CsrMatrix) -> Result<()> {
-        self.inverse_diagonal = a.diagonal();
+        a.diagonal_into(&mut self.inverse_diagonal);
         for (i, d) in self.inverse_diagonal.iter_mut().enumerate() {
             if d.is_nan() || *d <= 0.0 {
                 return Err(Error::Solver {

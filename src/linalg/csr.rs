@@ -110,19 +110,32 @@ impl CsrMatrix {
 
     /// The diagonal (zero where a row stores no diagonal entry).
     pub fn diagonal(&self) -> Vec<f64> {
-        (0..self.rows.min(self.cols))
-            .map(|i| {
-                let range = self.row_start[i]..self.row_start[i + 1];
-                let columns = &self.col_index[range.clone()];
-                // Columns are sorted in every matrix the crate builds: binary search, with a
-                // scan as the fallback for hand-made unsorted rows.
-                let position = columns
-                    .binary_search(&i)
-                    .ok()
-                    .or_else(|| columns.iter().position(|&j| j == i));
-                position.map_or(0.0, |k| self.values[range.start + k])
-            })
-            .collect()
+        let mut diagonal = Vec::new();
+        self.diagonal_into(&mut diagonal);
+        diagonal
+    }
+
+    /// The diagonal into `out`, reusing its allocation (per-solve set-ups).
+    pub fn diagonal_into(&self, out: &mut Vec<f64>) {
+        out.clear();
+        out.extend((0..self.rows.min(self.cols)).map(|i| {
+            let range = self.row_start[i]..self.row_start[i + 1];
+            let columns = &self.col_index[range.clone()];
+            // Columns are sorted in every matrix the crate builds: binary search, with a
+            // scan as the fallback for hand-made unsorted rows.
+            let position = columns
+                .binary_search(&i)
+                .ok()
+                .or_else(|| columns.iter().position(|&j| j == i));
+            position.map_or(0.0, |k| self.values[range.start + k])
+        }));
+    }
+
+    /// Whether row `i` stores no non-zero off-diagonal value: a DOF eliminated by
+    /// [`CsrMatrix::constrain`] (an identity row), decoupled from the others.
+    pub fn row_is_decoupled(&self, i: usize) -> bool {
+        (self.row_start[i]..self.row_start[i + 1])
+            .all(|k| self.col_index[k] == i || self.values[k] == 0.0)
     }
 }
 

@@ -158,11 +158,6 @@ impl KroneckerPreconditioner {
     }
 }
 
-/// Whether row `i` of `a` has no non-zero off-diagonal value (an eliminated DOF).
-pub(crate) fn is_decoupled(a: &CsrMatrix, i: usize) -> bool {
-    (a.row_start[i]..a.row_start[i + 1]).all(|k| a.col_index[k] == i || a.values[k] == 0.0)
-}
-
 impl Preconditioner for KroneckerPreconditioner {
     fn solver_name(&self) -> &'static str {
         "kron"
@@ -176,22 +171,25 @@ impl Preconditioner for KroneckerPreconditioner {
                 self.kronecker.len()
             )));
         }
-        let diagonal = a.diagonal();
+        // `scaled` is scratch until `apply`: here it holds the diagonal of `a`.
+        a.diagonal_into(&mut self.scaled);
         self.inverse_sqrt_scaling.resize(n, 0.0);
         self.decoupled_inverse.resize(n, 0.0);
-        self.scaled.resize(n, 0.0);
-        for (i, &d) in diagonal.iter().enumerate() {
+        let reference = self.kronecker.diagonal();
+        let scalings = self
+            .inverse_sqrt_scaling
+            .iter_mut()
+            .zip(self.decoupled_inverse.iter_mut());
+        for (i, (&d, (scaling, decoupled))) in self.scaled.iter().zip(scalings).enumerate() {
             if d.is_nan() || d <= 0.0 {
                 return Err(failure(format!(
                     "non-positive diagonal entry {d:e} in row {i}"
                 )));
             }
-            if is_decoupled(a, i) {
-                self.inverse_sqrt_scaling[i] = 0.0;
-                self.decoupled_inverse[i] = 1.0 / d;
+            if a.row_is_decoupled(i) {
+                (*scaling, *decoupled) = (0.0, 1.0 / d);
             } else {
-                self.inverse_sqrt_scaling[i] = (self.kronecker.diagonal()[i] / d).sqrt();
-                self.decoupled_inverse[i] = 0.0;
+                (*scaling, *decoupled) = ((reference[i] / d).sqrt(), 0.0);
             }
         }
         Ok(())

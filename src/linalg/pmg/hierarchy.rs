@@ -363,7 +363,7 @@ impl Hierarchy {
             let unmasked = &g.prolongations[l];
             g.fine_decoupled.clear();
             g.fine_decoupled
-                .extend((0..fine.rows).map(|i| row_is_decoupled(fine, i)));
+                .extend((0..fine.rows).map(|i| fine.row_is_decoupled(i)));
             // Coarse DOFs reached by no kept fine DOF, or with an eliminated parent.
             g.coarse_eliminated.clear();
             g.coarse_eliminated.resize(coarse.rows, true);
@@ -439,15 +439,6 @@ impl GalerkinProducts {
         self.fine_col_index.clone_from(&a.col_index);
         self.built = true;
     }
-}
-
-/// Row `i` has no non-zero off-diagonal entry (an eliminated DOF).
-fn row_is_decoupled(a: &CsrMatrix, i: usize) -> bool {
-    let range = a.row_start[i]..a.row_start[i + 1];
-    a.col_index[range.clone()]
-        .iter()
-        .zip(&a.values[range])
-        .all(|(&j, &v)| j == i || v == 0.0)
 }
 
 /// `out = a b` into the fixed pattern of `out` (built by [`CsrMatrix::matmul`] from the
