@@ -5,7 +5,7 @@
 //! `method.subpoints`.
 
 use crate::app::solvers::{build_solver, SolverGeometry};
-use crate::config::{BasisKind, MassKind, ReconstructionKind, Scenario};
+use crate::config::{BasisKind, MassKind, MaterialModel, ReconstructionKind, Scenario};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::assembly::SplineSpace;
@@ -14,14 +14,20 @@ use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping
 use crate::particles::Particles;
 use crate::physics::stability::{critical_time_step, critical_time_step_consistent};
 use crate::physics::step::TimeStepper;
-use crate::physics::{Boundary, MassSystem, Material, Simulation, Stepper};
+use crate::physics::two_phase::{
+    PhaseSolvers, TwoPhaseBoundary, TwoPhaseMaterial, TwoPhaseStepper,
+};
+use crate::physics::{MassSystem, Material, Simulation, Stepper};
 use crate::problems::{self, Problem};
 
 /// Everything a stepper needs besides its basis and mapping.
 struct StepperParts {
     grid: Grid,
+    /// The one-phase law, or the skeleton law of a two-phase material.
     material: Material,
-    boundary: Boundary,
+    /// The two-phase material (then the stepper is a [`TwoPhaseStepper`]).
+    two_phase: Option<TwoPhaseMaterial>,
+    boundary: TwoPhaseBoundary,
     force: bool,
 }
 
@@ -34,7 +40,17 @@ pub fn build_simulation(
     scenario.validate()?;
     let problem = problems::build(scenario)?;
     let grid = Grid::new(problem.length(), scenario.grid.cells);
-    let material = Material::require(&scenario.material)?;
+    let two_phase = match scenario.material.model {
+        MaterialModel::TwoPhase => Some(TwoPhaseMaterial::from_config(&scenario.material)?),
+        _ => {
+            TwoPhaseMaterial::reject_keys(&scenario.material)?;
+            None
+        }
+    };
+    let material = match &two_phase {
+        Some(m) => m.skeleton,
+        None => Material::require(&scenario.material)?,
+    };
     let mut particles = problem.initial_particles(
         &grid,
         scenario.particles.per_cell,
@@ -43,7 +59,11 @@ pub fn build_simulation(
     let parts = StepperParts {
         grid,
         material,
-        boundary: problem.boundary(),
+        two_phase,
+        boundary: TwoPhaseBoundary {
+            solid: problem.boundary(),
+            liquid: problem.liquid_boundary(),
+        },
         force,
     };
     let method = &scenario.method;
@@ -84,7 +104,11 @@ pub fn build_simulation(
             ))
         }
     };
-    Ok((problem, Simulation::new(stepper, particles)))
+    let start_time = problem.start_time();
+    Ok((
+        problem,
+        Simulation::new(stepper, particles).starting_at(start_time),
+    ))
 }
 
 /// Gauss points per cell of a reconstruction: `method.gauss_points`, or (0) `p + 2` for a
@@ -122,7 +146,7 @@ fn mass_solver(scenario: &Scenario, grid: &Grid) -> Result<Box<dyn LinearSolver>
 }
 
 /// Dispatch on `method.basis` for a given mapping.
-fn with_basis<M: Mapping + 'static>(
+fn with_basis<M: Mapping + Clone + 'static>(
     scenario: &Scenario,
     parts: StepperParts,
     mapping: M,
@@ -159,20 +183,23 @@ fn with_basis<M: Mapping + 'static>(
 }
 
 /// The monomorphised stepper, after the stability check of its basis.
-fn stepper<B: Basis + 'static, M: Mapping + 'static>(
+fn stepper<B: Basis + 'static, M: Mapping + Clone + 'static>(
     scenario: &Scenario,
     parts: StepperParts,
     basis: B,
     mapping: M,
     particles: &mut Particles,
 ) -> Result<Box<dyn TimeStepper>> {
+    if let Some(material) = parts.two_phase {
+        return two_phase_stepper(scenario, parts, material, basis, mapping, particles);
+    }
     let stepper = Stepper::new(
         parts.grid,
         basis,
         mapping,
         parts.material,
         scenario.method.scheme,
-        parts.boundary,
+        parts.boundary.solid,
         scenario.time.dt,
         MassSystem::new(
             scenario.method.acceleration_mass(),
@@ -190,6 +217,71 @@ fn stepper<B: Basis + 'static, M: Mapping + 'static>(
             modulus,
         ));
     }
+    if scenario.time.dt > limit && !parts.force {
+        return Err(Error::UnstableTimeStep {
+            dt: scenario.time.dt,
+            limit,
+        });
+    }
+    Ok(Box::new(stepper))
+}
+
+/// The two-phase stepper (SPEC §2.1), after the stability check: the fastest wave of the
+/// mixture ([`TwoPhaseMaterial::max_wave_speed`]) on the particle operators of the basis,
+/// and the explicit drag limit `2 k / (n g)`.
+fn two_phase_stepper<B: Basis + 'static, M: Mapping + Clone + 'static>(
+    scenario: &Scenario,
+    parts: StepperParts,
+    material: TwoPhaseMaterial,
+    basis: B,
+    mapping: M,
+    particles: &mut Particles,
+) -> Result<Box<dyn TimeStepper>> {
+    let method = &scenario.method;
+    let system = || -> Result<MassSystem> {
+        Ok(MassSystem::new(
+            method.acceleration_mass(),
+            method.mass,
+            mass_solver(scenario, &parts.grid)?,
+        ))
+    };
+    let solvers = PhaseSolvers {
+        solid: system()?,
+        liquid: MassSystem::new(
+            method.acceleration_mass(),
+            method.acceleration_mass(),
+            mass_solver(scenario, &parts.grid)?,
+        ),
+        liquid_bar: system()?,
+    };
+    let stepper = TwoPhaseStepper::new(
+        parts.grid,
+        basis,
+        mapping,
+        material,
+        parts.boundary,
+        scenario.time.dt,
+        method.acceleration_mass(),
+        solvers,
+        particles,
+    )?;
+    // The wave limit: particle operators with the mixture density and the modulus of the
+    // fastest wave, c_max^2 rho_sat.
+    let density = material.saturated_density();
+    let mut mixture = particles.clone();
+    for (m, v) in mixture.mass.iter_mut().zip(&mixture.volume) {
+        *m = density * v;
+    }
+    let modulus = density * material.max_wave_speed().powi(2);
+    let mut limit = critical_time_step(&stepper.basis, &mixture, modulus);
+    if method.acceleration_mass() == MassKind::Consistent {
+        limit = limit.min(critical_time_step_consistent(
+            &stepper.basis,
+            &mixture,
+            modulus,
+        ));
+    }
+    limit = limit.min(material.drag_time_step());
     if scenario.time.dt > limit && !parts.force {
         return Err(Error::UnstableTimeStep {
             dt: scenario.time.dt,

@@ -27,6 +27,18 @@ pub const BUILTIN: &[Builtin] = &[
         description: "column compaction (SPEC 6.4): Hill law, ramped gravity, 50 cells, 20 PPC",
         toml: include_str!("../../scenarios/column_compaction.toml"),
     },
+    Builtin {
+        name: "consolidation",
+        description: "two-phase consolidation, small deformation (SPEC 6.6): Terzaghi, \
+                      from t = 5 s, 20 cells, 4 PPC",
+        toml: include_str!("../../scenarios/consolidation.toml"),
+    },
+    Builtin {
+        name: "consolidation_large",
+        description: "two-phase consolidation, large deformation (SPEC 6.6): Hill skeleton, \
+                      BSMPM-TLS lumped, 120 cells, 16 PPC, 0.4 s",
+        toml: include_str!("../../scenarios/consolidation_large.toml"),
+    },
 ];
 
 /// The built-in scenario called `name`, if any.

@@ -107,8 +107,10 @@ pub fn exact_columns(
         .iter()
         .map(|&field| {
             let time = match (field, scenario.output.velocity_reference) {
-                (Field::Velocity, VelocityReference::HalfStep)
-                    if simulation.steps_done > 0 && !problem.velocity_is_time_stepped() =>
+                (field, VelocityReference::HalfStep)
+                    if field.is_velocity()
+                        && simulation.steps_done > 0
+                        && !problem.velocity_is_time_stepped() =>
                 {
                     t - 0.5 * dt
                 }
@@ -130,12 +132,11 @@ fn as_refs(columns: &[(Field, Vec<f64>)]) -> Vec<ExactColumn<'_>> {
         .collect()
 }
 
-fn numerical(particles: &Particles, field: Field) -> &[f64] {
-    match field {
-        Field::Displacement => &particles.u,
-        Field::Velocity => &particles.v,
-        Field::Stress => &particles.stress,
-    }
+/// The particle values of `field` (NaN when the particles lack it).
+fn numerical(particles: &Particles, field: Field) -> std::borrow::Cow<'_, [f64]> {
+    field
+        .values(particles)
+        .unwrap_or_else(|| vec![f64::NAN; particles.len()].into())
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -155,10 +156,10 @@ fn write_outputs(
         let mut errors = Errors::default();
         for (field, exact) in &columns {
             let num = numerical(particles, *field);
-            errors.rms.insert(field.name().into(), rms(num, exact));
+            errors.rms.insert(field.name().into(), rms(&num, exact));
             errors
                 .rel_l2
-                .insert(field.name().into(), relative_l2(num, exact));
+                .insert(field.name().into(), relative_l2(&num, exact));
         }
         errors
     });
@@ -186,14 +187,16 @@ fn write_outputs(
         conservation: Conservation {
             max_rel_mass_error: simulation.max_mass_error,
             max_rel_momentum_error: simulation.max_momentum_error,
+            liquid_max_rel_mass_error: simulation.max_liquid_mass_error,
+            liquid_max_rel_momentum_error: simulation.max_liquid_momentum_error,
         },
         grid_crossings: simulation.grid_crossings,
         solver: {
-            let mass = simulation.stepper.mass_system();
+            let totals = simulation.stepper.solver_totals();
             SolverSummary {
-                kind: mass.kind().into(),
-                total_iterations: mass.total_iterations,
-                max_iterations: mass.max_iterations,
+                kind: totals.kind.into(),
+                total_iterations: totals.total_iterations,
+                max_iterations: totals.max_iterations,
             }
         },
         reconstruction_remedies: simulation.stepper.remedies(),
@@ -206,7 +209,33 @@ fn write_outputs(
     )?;
     write_history(&out_dir.join("history.csv"), &simulation.history)?;
     if scenario.output.plots {
-        stress_plot(&out_dir.join("stress.svg"), problem, simulation, &columns)?;
+        let profiles: &[(Field, &str, &str)] = if particles.liquid.is_some() {
+            &[
+                (Field::Stress, "stress.svg", "total stress [Pa]"),
+                (
+                    Field::PorePressure,
+                    "pore_pressure.svg",
+                    "pore pressure [Pa]",
+                ),
+                (
+                    Field::EffectiveStress,
+                    "effective_stress.svg",
+                    "effective stress [Pa]",
+                ),
+            ]
+        } else {
+            &[(Field::Stress, "stress.svg", "stress [Pa]")]
+        };
+        for &(field, file, y_label) in profiles {
+            profile_of(
+                &out_dir.join(file),
+                field,
+                y_label,
+                problem,
+                simulation,
+                &columns,
+            )?;
+        }
         if !columns.is_empty() {
             error_plot(&out_dir.join("errors.svg"), problem, simulation, &columns)?;
         }
@@ -276,27 +305,30 @@ fn error_plot(
     )
 }
 
-/// Stress profile: particles (points) against the exact stress (line), over the current
-/// or initial position as the problem prefers.
-fn stress_plot(
+/// Profile of `field`: particles (points) against the exact / reference values (line),
+/// over the current or initial position as the problem prefers.
+fn profile_of(
     path: &Path,
+    field: Field,
+    y_label: &str,
     problem: &dyn Problem,
     simulation: &Simulation,
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
     let (order, xs, x_label) = plot_positions(problem, p);
-    let stress: Vec<f64> = order.iter().map(|&k| p.stress[k]).collect();
+    let values = numerical(p, field);
+    let values: Vec<f64> = order.iter().map(|&k| values[k]).collect();
     let exact: Option<Vec<f64>> = columns
         .iter()
-        .find(|(f, _)| *f == Field::Stress)
+        .find(|(f, _)| *f == field)
         .map(|(_, values)| order.iter().map(|&k| values[k]).collect());
     let (basis, reconstruction) = simulation.stepper.method_names();
     let label = format!("{basis} / {reconstruction}");
     let mut series = vec![Series {
         label: &label,
         x: &xs,
-        y: &stress,
+        y: &values,
         style: Style::Points,
     }];
     if let Some(exact) = &exact {
@@ -308,8 +340,9 @@ fn stress_plot(
         });
     }
     let title = format!(
-        "{}: stress at t = {:.4e} s",
+        "{}: {} at t = {:.4e} s",
         problem.name(),
+        field.name().replace('_', " "),
         simulation.time()
     );
     profile_plot(
@@ -317,7 +350,7 @@ fn stress_plot(
         &Axes {
             title: &title,
             x_label,
-            y_label: "stress [Pa]",
+            y_label,
         },
         &series,
     )

@@ -51,7 +51,7 @@ pub fn study(
         let errors = summary.errors.unwrap_or_default();
         let h = crate::problems::build(&resolved)?.length() / n as f64;
         let mut fields = Vec::new();
-        for field in Field::ALL {
+        for field in Field::TWO_PHASE {
             if let (Some(&e_rms), Some(&e_l2)) = (
                 errors.rms.get(field.name()),
                 errors.rel_l2.get(field.name()),
@@ -118,6 +118,9 @@ fn short(field: Field) -> &'static str {
         Field::Displacement => "u",
         Field::Velocity => "v",
         Field::Stress => "sigma",
+        Field::LiquidVelocity => "v_w",
+        Field::PorePressure => "p",
+        Field::EffectiveStress => "sigma'",
     }
 }
 

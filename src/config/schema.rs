@@ -28,7 +28,7 @@ pub enum ProblemKind {
     VibratingBar,
     /// SPEC §6.4.
     ColumnCompaction,
-    /// SPEC §6.6 (two-phase; not available yet).
+    /// SPEC §6.6 (two-phase Terzaghi consolidation).
     Consolidation,
     /// SPEC §6.5 (neo-Hookean MMS bar; not available yet).
     MmsBar,
@@ -48,6 +48,13 @@ pub struct ProblemConfig {
     /// Column compaction: final signed body acceleration in m/s² (default -200).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity: Option<f64>,
+    /// Consolidation: signed load `q` on the top in Pa (default -1e4, compression).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<f64>,
+    /// Consolidation: time of the exact solution at which the run starts, in s (default
+    /// 5; at 0 the column starts undrained, `p = q`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_time: Option<f64>,
     /// What the errors are measured against: the exact solution (default) or the
     /// updated-Lagrangian FEM reference.
     #[serde(default)]
@@ -83,8 +90,21 @@ pub enum MaterialModel {
     Hill,
     /// 1D neo-Hookean (not available yet).
     NeoHookean,
-    /// Saturated two-phase soil (not available yet).
+    /// Saturated two-phase soil (SPEC §1.2): solid skeleton and pore liquid on the same
+    /// particles; the skeleton law is `material.skeleton`.
     TwoPhase,
+}
+
+/// `material.skeleton`: the effective-stress law of the solid skeleton of a two-phase
+/// material (SPEC §1.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SkeletonLaw {
+    /// Small strain: `dsigma' = E_c deps`.
+    #[default]
+    Linear,
+    /// Large strain (Hill): `dsigma' = (E_c - sigma') deps`.
+    Hill,
 }
 
 /// `[material]`.
@@ -99,6 +119,30 @@ pub struct MaterialConfig {
     /// Young's modulus in Pa.
     #[serde(default = "default_youngs_modulus")]
     pub youngs_modulus: f64,
+    /// Two-phase: porosity `n` (default 0.4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub porosity: Option<f64>,
+    /// Two-phase: density of the solid grains `rho_s` in kg/m³ (default 2600).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density_solid: Option<f64>,
+    /// Two-phase: density of the pore liquid `rho_w` in kg/m³ (default 1000).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density_liquid: Option<f64>,
+    /// Two-phase: constrained (oedometer) modulus of the skeleton `E_c` in Pa (default 1e7).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub constrained_modulus: Option<f64>,
+    /// Two-phase: bulk modulus of the liquid `K_w` in Pa (default 3e8).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bulk_modulus_liquid: Option<f64>,
+    /// Two-phase: Darcy permeability `k` in m/s (default 1e-5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub permeability: Option<f64>,
+    /// Two-phase: gravitational acceleration `g` in `gamma_w = rho_w g`, m/s² (default 9.81).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f64>,
+    /// Two-phase: the skeleton law (default linear).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skeleton: Option<SkeletonLaw>,
 }
 
 fn default_density() -> f64 {
@@ -114,6 +158,14 @@ impl Default for MaterialConfig {
             model: MaterialModel::default(),
             density: default_density(),
             youngs_modulus: default_youngs_modulus(),
+            porosity: None,
+            density_solid: None,
+            density_liquid: None,
+            constrained_modulus: None,
+            bulk_modulus_liquid: None,
+            permeability: None,
+            gravity: None,
+            skeleton: None,
         }
     }
 }

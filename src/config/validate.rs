@@ -96,15 +96,35 @@ impl Scenario {
                 "not available in this version of tlsmpm",
             ))
         };
-        match self.problem.kind {
-            ProblemKind::Consolidation => return not_yet("problem.kind", "consolidation"),
-            ProblemKind::MmsBar => return not_yet("problem.kind", "mms_bar"),
-            _ => {}
+        if self.problem.kind == ProblemKind::MmsBar {
+            return not_yet("problem.kind", "mms_bar");
         }
-        match self.material.model {
-            MaterialModel::NeoHookean => return not_yet("material.model", "neo_hookean"),
-            MaterialModel::TwoPhase => return not_yet("material.model", "two_phase"),
-            _ => {}
+        if self.material.model == MaterialModel::NeoHookean {
+            return not_yet("material.model", "neo_hookean");
+        }
+        // The two-phase physics and the consolidation problem go together.
+        let two_phase = self.material.model == MaterialModel::TwoPhase;
+        if two_phase != (self.problem.kind == ProblemKind::Consolidation) {
+            return Err(if two_phase {
+                Error::invalid(
+                    "material.model",
+                    "\"two_phase\"",
+                    "only problem.kind = \"consolidation\" has a two-phase set-up",
+                )
+            } else {
+                Error::invalid(
+                    "material.model",
+                    format!("{:?}", self.material.model),
+                    "problem.kind = \"consolidation\" needs material.model = \"two_phase\"",
+                )
+            });
+        }
+        if two_phase && self.method.scheme != Scheme::Musl {
+            return Err(Error::invalid(
+                "method.scheme",
+                "\"usl\"",
+                "the two-phase step is MUSL only (SPEC §2.1)",
+            ));
         }
         // DDMPM sub-points (SPEC §3.3) replace the particle quadrature of the direct
         // mapping; they do not combine with a reconstruction. Any basis accepts them (the

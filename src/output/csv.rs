@@ -15,10 +15,16 @@ pub struct ExactColumn<'a> {
     pub values: &'a [f64],
 }
 
-/// `particles.csv` / `snapshot_NNNN.csv`: `x0,x,u,v,stress,volume,density,mass`, then
-/// `<field>_exact` for each exact column; one line per particle in original order.
+/// `particles.csv` / `snapshot_NNNN.csv`: `x0,x,u,v,stress,volume,density,mass`; for
+/// two-phase particles `v` is the solid velocity, `stress` the total stress
+/// `sigma' + p`, `density` and `mass` the solid ones, followed by
+/// `v_w,pore_pressure,effective_stress`; then `<field>_exact` for each exact column; one
+/// line per particle in original order.
 pub fn write_particles(path: &Path, particles: &Particles, exact: &[ExactColumn]) -> Result<()> {
     let mut out = String::from("x0,x,u,v,stress,volume,density,mass");
+    if particles.liquid.is_some() {
+        out.push_str(",v_w,pore_pressure,effective_stress");
+    }
     for column in exact {
         let _ = write!(out, ",{}_exact", column.field.column());
     }
@@ -27,11 +33,26 @@ pub fn write_particles(path: &Path, particles: &Particles, exact: &[ExactColumn]
     order.sort_by_key(|&k| particles.id[k]);
     for k in order {
         let p = particles;
+        let pressure = p.liquid.as_ref().map_or(0.0, |l| l.pore_pressure[k]);
         let _ = write!(
             out,
             "{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-            p.x0[k], p.x[k], p.u[k], p.v[k], p.stress[k], p.volume[k], p.density[k], p.mass[k]
+            p.x0[k],
+            p.x[k],
+            p.u[k],
+            p.v[k],
+            p.stress[k] + pressure,
+            p.volume[k],
+            p.density[k],
+            p.mass[k]
         );
+        if let Some(l) = &p.liquid {
+            let _ = write!(
+                out,
+                ",{:e},{:e},{:e}",
+                l.velocity[k], l.pore_pressure[k], p.stress[k]
+            );
+        }
         for column in exact {
             let _ = write!(out, ",{:e}", column.values[k]);
         }
@@ -41,26 +62,39 @@ pub fn write_particles(path: &Path, particles: &Particles, exact: &[ExactColumn]
 }
 
 /// `history.csv`: `step,time,mass_rel_error,momentum_rel_error,kinetic_energy,
-/// strain_energy,grid_crossings` (momentum error empty on steps with all particles at rest).
+/// strain_energy,grid_crossings` (momentum error empty on steps with all particles at rest);
+/// two-phase runs add `liquid_mass_rel_error,liquid_momentum_rel_error`.
 pub fn write_history(path: &Path, history: &[HistoryRow]) -> Result<()> {
+    let two_phase = history.iter().any(|r| r.liquid_mass_rel_error.is_some());
     let mut out = String::from(
-        "step,time,mass_rel_error,momentum_rel_error,kinetic_energy,strain_energy,grid_crossings\n",
+        "step,time,mass_rel_error,momentum_rel_error,kinetic_energy,strain_energy,grid_crossings",
     );
+    if two_phase {
+        out.push_str(",liquid_mass_rel_error,liquid_momentum_rel_error");
+    }
+    out.push('\n');
+    let optional = |e: Option<f64>| e.map_or(String::new(), |e| format!("{e:e}"));
     for row in history {
-        let momentum = row
-            .momentum_rel_error
-            .map_or(String::new(), |e| format!("{e:e}"));
-        let _ = writeln!(
+        let _ = write!(
             out,
             "{},{:e},{:e},{},{:e},{:e},{}",
             row.step,
             row.time,
             row.mass_rel_error,
-            momentum,
+            optional(row.momentum_rel_error),
             row.kinetic_energy,
             row.strain_energy,
             row.grid_crossings
         );
+        if two_phase {
+            let _ = write!(
+                out,
+                ",{},{}",
+                optional(row.liquid_mass_rel_error),
+                optional(row.liquid_momentum_rel_error)
+            );
+        }
+        out.push('\n');
     }
     write_atomic(path, out.as_bytes())
 }

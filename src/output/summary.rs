@@ -19,6 +19,11 @@ pub struct Errors {
 pub struct Conservation {
     pub max_rel_mass_error: f64,
     pub max_rel_momentum_error: f64,
+    /// Two-phase runs: the liquid phase's errors (the solid's are the two above).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub liquid_max_rel_mass_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub liquid_max_rel_momentum_error: Option<f64>,
 }
 
 /// Linear-solver statistics of the consistent mass solves (`kind = "lumped"` when only

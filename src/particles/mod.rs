@@ -8,7 +8,37 @@ pub mod bins;
 
 pub use bins::CellBins;
 
-/// One-phase particle fields, one array per field.
+/// Pore-liquid fields of two-phase particles (SPEC §2.1), in the storage order of the
+/// solid fields. The solid phase lives in [`Particles`] itself: `mass` is the constant
+/// solid mass `(1 - n_p) rho_s V_p^0`, `v` the solid velocity, `stress` the effective
+/// stress `sigma'_p`, `density` the partial solid density `mass / V_p`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LiquidFields {
+    /// Porosity `n_p` (constant: the masses below are constant, SPEC §2.1).
+    pub porosity: Vec<f64>,
+    /// Constant liquid mass `(m_w)_p = rho_w V_p^0` (the liquid-phase mass is
+    /// `n_p (m_w)_p`).
+    pub mass: Vec<f64>,
+    /// Liquid velocity `(v_w)_p`.
+    pub velocity: Vec<f64>,
+    /// Pore pressure `p_p`, positive in tension like stress.
+    pub pore_pressure: Vec<f64>,
+}
+
+impl LiquidFields {
+    /// Liquid at rest with pressure `pore_pressure` for `n` particles.
+    pub fn uniform(n: usize, porosity: f64, mass: &[f64], pore_pressure: f64) -> Self {
+        Self {
+            porosity: vec![porosity; n],
+            mass: mass.to_vec(),
+            velocity: vec![0.0; n],
+            pore_pressure: vec![pore_pressure; n],
+        }
+    }
+}
+
+/// Particle fields, one array per field; the liquid fields of two-phase particles only
+/// when the material is two-phase.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Particles {
     /// Original index (stable across re-sorting).
@@ -31,6 +61,8 @@ pub struct Particles {
     pub mass: Vec<f64>,
     /// Current cell of each particle.
     pub cell: Vec<usize>,
+    /// Pore-liquid fields (two-phase materials only).
+    pub liquid: Option<LiquidFields>,
 }
 
 impl Particles {
@@ -63,6 +95,7 @@ impl Particles {
             mass: vec![density * sub; n],
             cell: (0..n).map(|k| k / per_cell).collect(),
             x0,
+            liquid: None,
         }
     }
 
@@ -77,7 +110,16 @@ impl Particles {
             &mut self.volume,
             &mut self.density,
             &mut self.mass,
-        ] {
+        ]
+        .into_iter()
+        .chain(self.liquid.iter_mut().flat_map(|l| {
+            [
+                &mut l.porosity,
+                &mut l.mass,
+                &mut l.velocity,
+                &mut l.pore_pressure,
+            ]
+        })) {
             scratch.clear();
             scratch.extend(order.iter().map(|&k| field[k]));
             std::mem::swap(field, scratch);

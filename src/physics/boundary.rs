@@ -1,6 +1,11 @@
 //! Boundary conditions of the 1D continuum: fixed (Dirichlet, `u = 0`) ends and traction
 //! (Neumann, `sigma n = tau`) ends. A fixed DOF gets `a_i = 0` and `v_i = 0`; a traction
-//! `tau` adds `tau n` to the external force of the end DOF (`n = -1` left, `+1` right).
+//! `tau` acts on the material surface `x_s` (`n = -1` left, `+1` right):
+//! `f_ext_i += tau n phi_i(x_s)`, which is `tau n` on the end DOF while the surface is at
+//! the grid end and follows the surface when the material moves away from it (a settling
+//! loaded column), so the load never lands on a DOF that has lost its mass.
+
+use crate::grid::{Basis, Grid, Shape};
 
 /// What happens at the two ends of the domain.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -28,6 +33,41 @@ impl Boundary {
         Self {
             fixed_left: true,
             ..Self::default()
+        }
+    }
+
+    /// Whether a free end carries a non-zero traction.
+    pub fn has_tractions(&self) -> bool {
+        (!self.fixed_left && self.traction_left != 0.0)
+            || (!self.fixed_right && self.traction_right != 0.0)
+    }
+
+    /// Add the end tractions at the material surfaces `surfaces = (x_left, x_right)` (see
+    /// the module doc) to `external_force`.
+    pub fn add_surface_tractions<B: Basis>(
+        &self,
+        basis: &B,
+        grid: &Grid,
+        (left, right): (f64, f64),
+        external_force: &mut [f64],
+    ) {
+        let mut shape = Shape::default();
+        let ends = [
+            (!self.fixed_left, left, -self.traction_left),
+            (!self.fixed_right, right, self.traction_right),
+        ];
+        for (free, surface, force) in ends {
+            if !free || force == 0.0 {
+                continue;
+            }
+            let surface = surface.clamp(grid.origin, grid.origin + grid.length);
+            let Some(cell) = grid.cell_of(surface) else {
+                continue;
+            };
+            basis.eval(cell, surface, &mut shape);
+            for k in 0..shape.len {
+                external_force[shape.first + k] += force * shape.phi[k];
+            }
         }
     }
 

@@ -21,6 +21,38 @@ use crate::mapping::GridFields;
 /// DOFs whose lumped mass is below this fraction of the largest one are inactive.
 pub const MIN_RELATIVE_MASS: f64 = 1e-12;
 
+/// Solver statistics of one or more [`MassSystem`]s, for `summary.json`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolverTotals {
+    /// `"lumped"`, or the solver of the consistent systems.
+    pub kind: &'static str,
+    pub solves: usize,
+    pub total_iterations: usize,
+    pub max_iterations: usize,
+}
+
+impl SolverTotals {
+    /// Totals over `systems` (the kind of the first one that solves consistent systems).
+    pub fn of(systems: &[&MassSystem]) -> Self {
+        let kind = systems
+            .iter()
+            .find(|s| s.needs_matrix())
+            .map_or("lumped", |s| s.kind());
+        systems.iter().fold(
+            Self {
+                kind,
+                ..Self::default()
+            },
+            |t, s| Self {
+                kind: t.kind,
+                solves: t.solves + s.solves,
+                total_iterations: t.total_iterations + s.total_iterations,
+                max_iterations: t.max_iterations.max(s.max_iterations),
+            },
+        )
+    }
+}
+
 /// The mass-matrix solves of a time stepper.
 pub struct MassSystem {
     acceleration: MassKind,

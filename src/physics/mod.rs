@@ -1,5 +1,6 @@
 //! Physics: constitutive laws (SPEC §1.1), boundary conditions, the one-phase MUSL/USL
-//! Euler–Cromer step (SPEC §2) and the time loop with its diagnostics.
+//! Euler–Cromer step (SPEC §2), the two-phase MUSL step (SPEC §1.2, §2.1, [`two_phase`])
+//! and the time loop with its diagnostics.
 
 pub mod boundary;
 pub mod mass;
@@ -7,9 +8,10 @@ pub mod material;
 pub mod simulation;
 pub mod stability;
 pub mod step;
+pub mod two_phase;
 
 pub use boundary::Boundary;
-pub use mass::MassSystem;
+pub use mass::{MassSystem, SolverTotals};
 pub use material::{ConstitutiveLaw, Hill, LinearElastic, Material};
 pub use simulation::{HistoryRow, Simulation};
 pub use step::{StepReport, Stepper};

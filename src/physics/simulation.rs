@@ -1,10 +1,9 @@
-//! The time loop: steps `t_n = n dt`, the body force evaluated at the end of each step,
+//! The time loop: steps `t_n = t_0 + n dt`, the body force evaluated at the end of each step,
 //! and the per-step diagnostics of `history.csv` (conservation errors of the mapping,
 //! energies, cumulative grid crossings).
 
 use super::step::TimeStepper;
 use crate::error::Result;
-use crate::numerics::sum::deterministic_sums;
 use crate::particles::Particles;
 
 /// One row of `history.csv` (DESIGN §4).
@@ -15,6 +14,10 @@ pub struct HistoryRow {
     pub mass_rel_error: f64,
     /// `None` on steps where all particles are at rest.
     pub momentum_rel_error: Option<f64>,
+    /// Two-phase runs: the liquid's mass error (`None` for one phase).
+    pub liquid_mass_rel_error: Option<f64>,
+    /// Two-phase runs: the liquid's momentum error (`None` for one phase or liquid at rest).
+    pub liquid_momentum_rel_error: Option<f64>,
     pub kinetic_energy: f64,
     pub strain_energy: f64,
     /// Cumulative grid crossings up to and including this step.
@@ -31,6 +34,12 @@ pub struct Simulation {
     pub grid_crossings: usize,
     pub max_mass_error: f64,
     pub max_momentum_error: f64,
+    /// Two-phase: largest liquid conservation errors (`None` for one phase).
+    pub max_liquid_mass_error: Option<f64>,
+    pub max_liquid_momentum_error: Option<f64>,
+    /// Time at step 0 (`problem.start_time`; the exact solution's time of the initial
+    /// state).
+    pub start_time: f64,
 }
 
 impl Simulation {
@@ -43,25 +52,31 @@ impl Simulation {
             grid_crossings: 0,
             max_mass_error: 0.0,
             max_momentum_error: 0.0,
+            max_liquid_mass_error: None,
+            max_liquid_momentum_error: None,
+            start_time: 0.0,
         }
     }
 
-    /// Current time `steps_done * dt`.
-    pub fn time(&self) -> f64 {
-        self.steps_done as f64 * self.stepper.dt()
+    /// A simulation whose initial state is at time `start_time`.
+    pub fn starting_at(mut self, start_time: f64) -> Self {
+        self.start_time = start_time;
+        self
     }
 
-    /// Kinetic energy `sum_p m_p v_p^2 / 2` and strain energy `sum_p V_p W(sigma_p)`.
+    /// Current time `start_time + steps_done * dt`.
+    pub fn time(&self) -> f64 {
+        self.time_at(self.steps_done)
+    }
+
+    /// Time at the end of step `step`.
+    fn time_at(&self, step: usize) -> f64 {
+        self.start_time + step as f64 * self.stepper.dt()
+    }
+
+    /// Kinetic and stored energy (both phases for two-phase particles).
     pub fn energies(&self) -> (f64, f64) {
-        let p = &self.particles;
-        let material = *self.stepper.material();
-        let [kinetic, strain] = deterministic_sums(p.len(), |k| {
-            [
-                0.5 * p.mass[k] * p.v[k] * p.v[k],
-                p.volume[k] * material.strain_energy_density(p.stress[k]),
-            ]
-        });
-        (kinetic, strain)
+        self.stepper.energies(&self.particles)
     }
 
     /// Run `n_steps` steps. `body(t)` is the signed body acceleration at time `t` (applied
@@ -74,10 +89,9 @@ impl Simulation {
         body: &dyn Fn(f64) -> f64,
         after_step: &mut dyn FnMut(&Simulation) -> Result<()>,
     ) -> Result<()> {
-        let dt = self.stepper.dt();
         for _ in 0..n_steps {
             let step = self.steps_done + 1;
-            let time = step as f64 * dt;
+            let time = self.time_at(step);
             let report = self
                 .stepper
                 .step(&mut self.particles, body(time), step, time)?;
@@ -87,12 +101,25 @@ impl Simulation {
             if let Some(e) = report.momentum_error {
                 self.max_momentum_error = self.max_momentum_error.max(e);
             }
+            let larger = |a: Option<f64>, b: Option<f64>| match (a, b) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                (a, b) => a.or(b),
+            };
+            if report.liquid_mass_error.is_some() {
+                self.max_liquid_mass_error =
+                    larger(self.max_liquid_mass_error, report.liquid_mass_error).or(Some(0.0));
+                self.max_liquid_momentum_error =
+                    larger(self.max_liquid_momentum_error, report.liquid_momentum_error)
+                        .or(Some(0.0));
+            }
             let (kinetic_energy, strain_energy) = self.energies();
             self.history.push(HistoryRow {
                 step,
                 time,
                 mass_rel_error: report.mass_error,
                 momentum_rel_error: report.momentum_error,
+                liquid_mass_rel_error: report.liquid_mass_error,
+                liquid_momentum_rel_error: report.liquid_momentum_error,
                 kinetic_energy,
                 strain_energy,
                 grid_crossings: self.grid_crossings,

@@ -28,11 +28,11 @@ use crate::linalg::CsrMatrix;
 use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, Particles};
-use crate::physics::{Boundary, ConstitutiveLaw, MassSystem, Material};
+use crate::physics::{Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
 
 /// Particles per rayon task in particle loops.
-const PARTICLES_PER_TASK: usize = 2048;
+pub(crate) const PARTICLES_PER_TASK: usize = 2048;
 
 /// Diagnostics of one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -41,6 +41,11 @@ pub struct StepReport {
     pub mass_error: f64,
     /// Relative momentum error of the mapping (`None` when all particles are at rest).
     pub momentum_error: Option<f64>,
+    /// Two-phase: relative mass error of the liquid mappings (`None` for one phase).
+    pub liquid_mass_error: Option<f64>,
+    /// Two-phase: relative momentum error of the liquid mapping (`None` for one phase or
+    /// when the liquid is at rest).
+    pub liquid_momentum_error: Option<f64>,
     /// Particles that changed cell in this step.
     pub crossings: usize,
 }
@@ -125,8 +130,15 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         for (f, m) in fields.external_force.iter_mut().zip(&fields.mass) {
             *f = body_acceleration * m;
         }
-        self.boundary
-            .add_tractions(ends, &mut fields.external_force);
+        if self.boundary.has_tractions() {
+            let surfaces = quadrature(particles, &self.bins).material_extent();
+            self.boundary.add_surface_tractions(
+                &self.basis,
+                &self.grid,
+                surfaces,
+                &mut fields.external_force,
+            );
+        }
         if self.scheme == Scheme::Usl {
             self.mapping
                 .map_momentum(&self.basis, particles, &self.bins, fields);
@@ -181,29 +193,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                 law,
             ),
         };
-        if let Some((particle, failure)) = outcome.failure {
-            let field = match failure {
-                Failure::Velocity => "velocity",
-                Failure::Stress => "stress",
-                Failure::Position => "position",
-                Failure::Volume => {
-                    return Err(Error::CollapsedVolume {
-                        particle: particles.id[particle],
-                        step,
-                        time,
-                    })
-                }
-                Failure::LeftGrid => {
-                    return Err(Error::LeftGrid {
-                        particle: particles.id[particle],
-                        x: particles.x[particle],
-                        step,
-                        time,
-                    })
-                }
-            };
-            return Err(Error::NonFinite { field, step, time });
-        }
+        outcome.check(particles, step, time)?;
         if !mass_error.is_finite() {
             return Err(Error::NonFinite {
                 field: "grid mass",
@@ -219,12 +209,16 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             mass_error,
             momentum_error,
             crossings: outcome.crossings,
+            ..StepReport::default()
         })
     }
 }
 
 /// The particles as the quadrature rule of configuration-dependent bases.
-fn quadrature<'a>(particles: &'a Particles, bins: &'a CellBins) -> ParticleQuadrature<'a> {
+pub(crate) fn quadrature<'a>(
+    particles: &'a Particles,
+    bins: &'a CellBins,
+) -> ParticleQuadrature<'a> {
     ParticleQuadrature {
         x: &particles.x,
         volume: &particles.volume,
@@ -233,16 +227,29 @@ fn quadrature<'a>(particles: &'a Particles, bins: &'a CellBins) -> ParticleQuadr
 }
 
 /// `max(|sum_i p_i - sum_p m_p v_p|, imbalance) / sum_p m_p |v_p|` (see the module doc).
-fn momentum_error(particles: &Particles, fields: &GridFields, imbalance: f64) -> Option<f64> {
-    let n = particles.len();
-    let (m, v) = (&particles.mass, &particles.v);
+pub(crate) fn momentum_error(
+    particles: &Particles,
+    fields: &GridFields,
+    imbalance: f64,
+) -> Option<f64> {
+    phase_momentum_error(&particles.mass, &particles.v, fields, imbalance)
+}
+
+/// [`momentum_error`] of a phase with particle masses `m` and velocities `v`.
+pub(crate) fn phase_momentum_error(
+    m: &[f64],
+    v: &[f64],
+    fields: &GridFields,
+    imbalance: f64,
+) -> Option<f64> {
+    let n = m.len();
     let [particle_momentum, scale] = deterministic_sums(n, |p| [m[p] * v[p], m[p] * v[p].abs()]);
     let grid_momentum: f64 = fields.momentum.iter().sum();
     (scale > 0.0).then(|| (grid_momentum - particle_momentum).abs().max(imbalance) / scale)
 }
 
 /// A solver failure labelled with the step it happened in.
-fn at_step(error: Error, step: usize, time: f64) -> Error {
+pub(crate) fn at_step(error: Error, step: usize, time: f64) -> Error {
     match error {
         Error::Solver { solver, reason } => Error::Solver {
             solver,
@@ -252,16 +259,31 @@ fn at_step(error: Error, step: usize, time: f64) -> Error {
     }
 }
 
-/// Step 3: `v_p += dt phi^T(x_p) a`.
+/// Step 3: `v_p += dt phi^T(x_p) a` for the solid velocities `particles.v`.
 fn update_particle_velocities<B: Basis>(
     basis: &B,
     particles: &mut Particles,
     acceleration: &[f64],
     dt: f64,
 ) {
-    let (x, cell, volume) = (&particles.x, &particles.cell, &particles.volume);
-    particles
-        .v
+    let Particles {
+        x, cell, volume, v, ..
+    } = particles;
+    update_velocities(basis, x, cell, volume, v, acceleration, dt);
+}
+
+/// `velocity_p += dt phi^T(x_p) a` for particles at `x` in `cell` with volumes `volume`
+/// (any phase's particle velocities).
+pub(crate) fn update_velocities<B: Basis>(
+    basis: &B,
+    x: &[f64],
+    cell: &[usize],
+    volume: &[f64],
+    velocity: &mut [f64],
+    acceleration: &[f64],
+    dt: f64,
+) {
+    velocity
         .par_chunks_mut(PARTICLES_PER_TASK)
         .enumerate()
         .for_each(|(chunk, v)| {
@@ -276,7 +298,7 @@ fn update_particle_velocities<B: Basis>(
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Failure {
+pub(crate) enum Failure {
     Velocity,
     Stress,
     Position,
@@ -284,14 +306,44 @@ enum Failure {
     LeftGrid,
 }
 
-struct UpdateOutcome {
-    crossings: usize,
+pub(crate) struct UpdateOutcome {
+    pub(crate) crossings: usize,
     /// First failing particle (lowest index) and what failed.
-    failure: Option<(usize, Failure)>,
+    pub(crate) failure: Option<(usize, Failure)>,
+}
+
+impl UpdateOutcome {
+    /// The error of the first failing particle, if any.
+    pub(crate) fn check(&self, particles: &Particles, step: usize, time: f64) -> Result<()> {
+        let Some((particle, failure)) = self.failure else {
+            return Ok(());
+        };
+        let field = match failure {
+            Failure::Velocity => "velocity",
+            Failure::Stress => "stress",
+            Failure::Position => "position",
+            Failure::Volume => {
+                return Err(Error::CollapsedVolume {
+                    particle: particles.id[particle],
+                    step,
+                    time,
+                })
+            }
+            Failure::LeftGrid => {
+                return Err(Error::LeftGrid {
+                    particle: particles.id[particle],
+                    x: particles.x[particle],
+                    step,
+                    time,
+                })
+            }
+        };
+        Err(Error::NonFinite { field, step, time })
+    }
 }
 
 /// Steps 5–8 and the new cell of every particle.
-fn update_particles<B: Basis, L: ConstitutiveLaw>(
+pub(crate) fn update_particles<B: Basis, L: ConstitutiveLaw>(
     basis: &B,
     grid: &Grid,
     particles: &mut Particles,
@@ -377,12 +429,12 @@ pub trait TimeStepper: Send {
     fn dt(&self) -> f64;
     /// The background grid.
     fn grid(&self) -> &Grid;
-    /// The material law.
-    fn material(&self) -> &Material;
+    /// Kinetic and stored (strain) energy of `particles`.
+    fn energies(&self, particles: &Particles) -> (f64, f64);
     /// Names of the basis and mapping (`method.basis`, `method.reconstruction`).
     fn method_names(&self) -> (&'static str, &'static str);
     /// The mass-matrix solves so far.
-    fn mass_system(&self) -> &MassSystem;
+    fn solver_totals(&self) -> SolverTotals;
     /// Remedies of the reconstruction so far.
     fn remedies(&self) -> RemedyCounts;
 }
@@ -403,14 +455,23 @@ impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
     fn grid(&self) -> &Grid {
         &self.grid
     }
-    fn material(&self) -> &Material {
-        &self.material
+    /// Kinetic energy `sum_p m_p v_p^2 / 2` and strain energy `sum_p V_p W(sigma_p)`.
+    fn energies(&self, particles: &Particles) -> (f64, f64) {
+        let p = particles;
+        let material = self.material;
+        let [kinetic, strain] = deterministic_sums(p.len(), |k| {
+            [
+                0.5 * p.mass[k] * p.v[k] * p.v[k],
+                p.volume[k] * material.strain_energy_density(p.stress[k]),
+            ]
+        });
+        (kinetic, strain)
     }
     fn method_names(&self) -> (&'static str, &'static str) {
         (self.basis.name(), self.mapping.name())
     }
-    fn mass_system(&self) -> &MassSystem {
-        &self.mass
+    fn solver_totals(&self) -> SolverTotals {
+        SolverTotals::of(&[&self.mass])
     }
     fn remedies(&self) -> RemedyCounts {
         self.mapping.remedies()

@@ -10,11 +10,14 @@
 //! is the weight of the material above `X_p`.
 
 pub mod column_compaction;
+pub mod consolidation;
 pub mod reference;
+pub mod terzaghi;
 pub mod ulfem;
 pub mod vibrating_bar;
 
 pub use column_compaction::ColumnCompaction;
+pub use consolidation::Consolidation;
 pub use reference::UlfemReference;
 pub use vibrating_bar::VibratingBar;
 
@@ -24,17 +27,35 @@ use crate::grid::Grid;
 use crate::particles::Particles;
 use crate::physics::{Boundary, Material};
 
-/// Fields compared against exact solutions, named as in `summary.json`.
+/// Fields compared against exact solutions, named as in `summary.json`. For two-phase
+/// problems `Displacement` and `Velocity` are the solid's and `Stress` is the total stress
+/// `sigma' + p`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Field {
     Displacement,
     Velocity,
     Stress,
+    /// Two-phase: liquid velocity `v_w`.
+    LiquidVelocity,
+    /// Two-phase: pore pressure `p` (positive in tension).
+    PorePressure,
+    /// Two-phase: effective stress `sigma'`.
+    EffectiveStress,
 }
 
 impl Field {
     /// All one-phase fields.
     pub const ALL: [Field; 3] = [Field::Displacement, Field::Velocity, Field::Stress];
+
+    /// All fields of a two-phase problem.
+    pub const TWO_PHASE: [Field; 6] = [
+        Field::Displacement,
+        Field::Velocity,
+        Field::Stress,
+        Field::LiquidVelocity,
+        Field::PorePressure,
+        Field::EffectiveStress,
+    ];
 
     /// Name in `summary.json` and `study.csv`.
     pub fn name(self) -> &'static str {
@@ -42,16 +63,56 @@ impl Field {
             Field::Displacement => "displacement",
             Field::Velocity => "velocity",
             Field::Stress => "stress",
+            Field::LiquidVelocity => "liquid_velocity",
+            Field::PorePressure => "pore_pressure",
+            Field::EffectiveStress => "effective_stress",
         }
     }
 
-    /// Short column prefix in `particles.csv` (`u_exact`, `v_exact`, `stress_exact`).
+    /// Short column prefix in `particles.csv` (`u_exact`, `v_exact`, `stress_exact`,
+    /// `v_w_exact`, `pore_pressure_exact`, `effective_stress_exact`).
     pub fn column(self) -> &'static str {
         match self {
             Field::Displacement => "u",
             Field::Velocity => "v",
             Field::Stress => "stress",
+            Field::LiquidVelocity => "v_w",
+            Field::PorePressure => "pore_pressure",
+            Field::EffectiveStress => "effective_stress",
         }
+    }
+
+    /// Whether the exact value is a velocity (compared half a step back, see
+    /// `output.velocity_reference`).
+    pub fn is_velocity(self) -> bool {
+        matches!(self, Field::Velocity | Field::LiquidVelocity)
+    }
+
+    /// The particle values of this field (`None` for liquid fields of one-phase particles).
+    pub fn values(self, particles: &Particles) -> Option<std::borrow::Cow<'_, [f64]>> {
+        use std::borrow::Cow;
+        let liquid = particles.liquid.as_ref();
+        Some(match self {
+            Field::Displacement => Cow::Borrowed(&particles.u[..]),
+            Field::Velocity => Cow::Borrowed(&particles.v[..]),
+            Field::Stress => match liquid {
+                None => Cow::Borrowed(&particles.stress[..]),
+                Some(l) => Cow::Owned(
+                    particles
+                        .stress
+                        .iter()
+                        .zip(&l.pore_pressure)
+                        .map(|(s, p)| s + p)
+                        .collect(),
+                ),
+            },
+            Field::LiquidVelocity => Cow::Borrowed(&liquid?.velocity[..]),
+            Field::PorePressure => Cow::Borrowed(&liquid?.pore_pressure[..]),
+            Field::EffectiveStress => {
+                liquid?;
+                Cow::Borrowed(&particles.stress[..])
+            }
+        })
     }
 }
 
@@ -70,8 +131,18 @@ pub trait Problem: Send + Sync {
     fn length(&self) -> f64;
     /// Initial particles on `grid`, `per_cell` per cell.
     fn initial_particles(&self, grid: &Grid, per_cell: usize, density: f64) -> Particles;
-    /// Boundary conditions.
+    /// Boundary conditions (of the solid phase for two-phase problems: the traction is the
+    /// total stress).
     fn boundary(&self) -> Boundary;
+    /// Boundary conditions of the liquid phase of two-phase problems: fixed ends are
+    /// impermeable (`v_w = 0`), a free end's traction is its prescribed pore pressure.
+    fn liquid_boundary(&self) -> Boundary {
+        self.boundary()
+    }
+    /// Time of the initial state (the exact solution's clock; `problem.start_time`).
+    fn start_time(&self) -> f64 {
+        0.0
+    }
     /// Signed body acceleration at time `t`.
     fn body_acceleration(&self, t: f64) -> f64;
     /// Fields with an exact solution.
@@ -125,7 +196,14 @@ pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
 
 fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     let p = &scenario.problem;
-    let reject = |key: &str, value: Option<f64>, kind: &str| match value {
+    let kind = match p.kind {
+        ProblemKind::VibratingBar => "vibrating_bar",
+        ProblemKind::ColumnCompaction => "column_compaction",
+        ProblemKind::Consolidation => "consolidation",
+        ProblemKind::MmsBar => "mms_bar",
+    };
+    // Keys of other problems would be silently ignored: reject them.
+    let reject = |key: &str, value: Option<f64>| match value {
         Some(v) => Err(Error::invalid(
             key,
             crate::config::display_float(v),
@@ -133,16 +211,29 @@ fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
         )),
         None => Ok(()),
     };
+    let one_phase = matches!(
+        p.kind,
+        ProblemKind::VibratingBar | ProblemKind::ColumnCompaction
+    );
+    if one_phase {
+        reject("problem.load", p.load)?;
+        reject("problem.start_time", p.start_time)?;
+    }
     match p.kind {
         ProblemKind::VibratingBar => {
-            reject("problem.gravity", p.gravity, "vibrating_bar")?;
+            reject("problem.gravity", p.gravity)?;
             Ok(Box::new(VibratingBar::from_scenario(scenario)?))
         }
         ProblemKind::ColumnCompaction => {
-            reject("problem.v0", p.v0, "column_compaction")?;
+            reject("problem.v0", p.v0)?;
             Ok(Box::new(ColumnCompaction::from_scenario(scenario)?))
         }
-        ProblemKind::Consolidation | ProblemKind::MmsBar => Err(Error::invalid(
+        ProblemKind::Consolidation => {
+            reject("problem.v0", p.v0)?;
+            reject("problem.gravity", p.gravity)?;
+            Ok(Box::new(Consolidation::from_scenario(scenario)?))
+        }
+        ProblemKind::MmsBar => Err(Error::invalid(
             "problem.kind",
             format!("{:?}", p.kind),
             "not available in this version of tlsmpm",

@@ -352,6 +352,8 @@ impl Ulfem {
             Field::Displacement => self.nodal(&self.u, x0),
             Field::Velocity => self.nodal(&self.v, x0),
             Field::Stress => self.elemental(x0),
+            // One-phase reference: no liquid.
+            Field::LiquidVelocity | Field::PorePressure | Field::EffectiveStress => f64::NAN,
         }
     }
 

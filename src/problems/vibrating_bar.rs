@@ -109,6 +109,7 @@ impl Problem for VibratingBar {
                     * (w * t).sin()
                     * (k * x0).cos()
             }
+            Field::LiquidVelocity | Field::PorePressure | Field::EffectiveStress => return None,
         })
     }
 }
