@@ -114,6 +114,7 @@ fn bar_with_grid(cells: &str) -> String {
 const BAR: &str = "scenarios/vibrating_bar.toml";
 const COLUMN: &str = "scenarios/column_compaction.toml";
 const TINY: &str = "grid.cells=5";
+const CONSOLIDATION: &str = "scenarios/consolidation.toml";
 
 /// The step number in `... at step N ...`.
 fn failed_step(message: &str) -> usize {
@@ -323,7 +324,64 @@ fn malformed_set_is_bad_input() {
     );
 }
 
-// ---- 8. documented but unavailable methods --------------------------------------------
+// ---- 8. two-phase keys ----------------------------------------------------------------
+
+#[test]
+fn bad_two_phase_input_names_the_key() {
+    for (set, needles) in [
+        (
+            "material.porosity=1.2",
+            &["`material.porosity`", "1.2", "between 0 and 1"][..],
+        ),
+        (
+            "material.permeability=0",
+            &["`material.permeability`", "positive"][..],
+        ),
+        (
+            "material.bulk_modulus_liquid=-3e8",
+            &["`material.bulk_modulus_liquid`"][..],
+        ),
+        ("problem.start_time=-1", &["`problem.start_time`", "-1"][..]),
+        ("problem.v0=1", &["`problem.v0`", "consolidation"][..]),
+        (
+            "material.model=linear",
+            &["`material.model`", "two_phase"][..],
+        ),
+        ("method.scheme=usl", &["`method.scheme`", "MUSL"][..]),
+        ("material.skeleton=neo", &["material.skeleton", "neo"][..]),
+    ] {
+        expect_input_error(CONSOLIDATION, &[TINY, set], &[], needles);
+    }
+    // Two-phase keys on a one-phase material, and a two-phase material on a one-phase
+    // problem.
+    expect_input_error(
+        BAR,
+        &[TINY, "material.porosity=0.3"],
+        &[],
+        &["`material.porosity`", "two_phase"],
+    );
+    expect_input_error(
+        BAR,
+        &[TINY, "material.model=two_phase"],
+        &[],
+        &["`material.model`", "consolidation"],
+    );
+    expect_input_error(
+        BAR,
+        &[TINY, "problem.load=-1e4"],
+        &[],
+        &["`problem.load`", "vibrating_bar"],
+    );
+    // The explicit drag limit 2 k / (n g (1 + n rho_w / ((1 - n) rho_s))) = 4.06e-6 s.
+    expect_input_error(
+        CONSOLIDATION,
+        &[TINY, "time.dt=1e-5", "time.end=1e-4"],
+        &[],
+        &["`time.dt`", "stability limit"],
+    );
+}
+
+// ---- 9. documented but unavailable methods --------------------------------------------
 
 #[test]
 fn unavailable_methods_name_their_key() {
