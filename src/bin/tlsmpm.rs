@@ -8,6 +8,7 @@ use std::io::IsTerminal as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
+use tlsmpm::app::overlay::{Axis, OverlayOptions};
 use tlsmpm::app::solver_study::{SolverStudyOptions, StudyDensity};
 use tlsmpm::app::{self, builtin, RunOptions};
 use tlsmpm::config::{self, Scenario, Smoother, SolverConfig, SolverKind};
@@ -85,6 +86,28 @@ enum Command {
         /// Output directory.
         #[arg(long, default_value = "out/solver_study")]
         out: PathBuf,
+    },
+    /// Overlay one particle field (a `particles.csv` column) of several finished runs.
+    Overlay {
+        /// Run directories, each holding a particles.csv.
+        #[arg(required = true, num_args = 1..)]
+        runs: Vec<PathBuf>,
+        /// Column to plot (any name in the header, e.g. stress, pore_pressure, u).
+        #[arg(long)]
+        field: String,
+        /// Horizontal axis: x0 (initial position) or x (current position).
+        #[arg(long, default_value = "x0")]
+        axis: String,
+        /// Series label, one per run in order (repeatable) [default: the directory name
+        /// with the basis / reconstruction of its summary.json].
+        #[arg(long = "label")]
+        labels: Vec<String>,
+        /// Also draw the first run's <FIELD>_exact column as a line.
+        #[arg(long)]
+        exact: bool,
+        /// Output SVG [default: overlay_<FIELD>.svg].
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// List the built-in scenarios.
     List,
@@ -207,6 +230,28 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             for b in builtin::BUILTIN {
                 println!("{:<22} {}", b.name, b.description);
             }
+            Ok(())
+        }
+        Command::Overlay {
+            runs,
+            field,
+            axis,
+            labels,
+            exact,
+            out,
+        } => {
+            let axis = Axis::parse(&axis)
+                .ok_or_else(|| tlsmpm::Error::invalid("--axis", &axis, "expected x0 or x"))?;
+            let options = OverlayOptions {
+                runs,
+                field,
+                axis,
+                labels,
+                exact,
+                out,
+            };
+            let path = app::overlay(&options)?;
+            println!("wrote {}", path.display());
             Ok(())
         }
         Command::Reconstruct { out } => {

@@ -1,0 +1,309 @@
+//! `tlsmpm overlay`: one particle field of several finished runs in one figure.
+//!
+//! Reads `RUN_DIR/particles.csv` of each run, takes one column (any name in the header, e.g.
+//! `pore_pressure`, `stress`, `u`) against the initial position `x0` or the current position
+//! `x`, sorted along that axis, and draws one point series per run with
+//! [`profile_plot`]; optionally the first run's `<COLUMN>_exact` column as a line. Series are
+//! labelled by the given labels, else by the run directory's name followed by the `basis /
+//! reconstruction` of its `summary.json` when that file is there.
+//!
+//! Bad input (a missing file, a column not in the header, an unparsable number, more labels
+//! than runs) is an input error naming the path, line or column; nothing panics.
+
+use crate::error::{Error, Result};
+use crate::output::plot::{profile_plot, Axes, Series, Style};
+use std::path::{Path, PathBuf};
+
+/// The horizontal axis of the overlay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    /// Initial position `x0` (column `x0`).
+    Initial,
+    /// Current position `x` (column `x`).
+    Current,
+}
+
+impl Axis {
+    /// `x0` or `x`.
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "x0" => Some(Axis::Initial),
+            "x" => Some(Axis::Current),
+            _ => None,
+        }
+    }
+
+    /// The column name and the axis label.
+    fn names(self) -> (&'static str, &'static str) {
+        match self {
+            Axis::Initial => ("x0", "initial position X [m]"),
+            Axis::Current => ("x", "x [m]"),
+        }
+    }
+}
+
+/// What to overlay and where to write it.
+#[derive(Clone, Debug)]
+pub struct OverlayOptions {
+    /// Run directories, each holding a `particles.csv`.
+    pub runs: Vec<PathBuf>,
+    /// Column to plot.
+    pub field: String,
+    /// Horizontal axis.
+    pub axis: Axis,
+    /// Series labels in run order; runs without one get a default label.
+    pub labels: Vec<String>,
+    /// Also draw `<field>_exact` of the first run as a line.
+    pub exact: bool,
+    /// Output SVG [default: `overlay_<field>.svg` in the current directory].
+    pub out: Option<PathBuf>,
+}
+
+/// A parsed `particles.csv`: its path, header and one vector per column.
+#[derive(Debug)]
+pub struct Table {
+    pub path: PathBuf,
+    pub header: Vec<String>,
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl Table {
+    /// Read a CSV file of numbers with a header row (blank lines are skipped).
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let bad = |line: usize, message: String| Error::ReadInput {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("line {line}: {message}"),
+            ),
+        };
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        let Some((_, first)) = lines.next() else {
+            return Err(bad(1, "empty file, expected a header row".into()));
+        };
+        let header: Vec<String> = first.split(',').map(|s| s.trim().to_string()).collect();
+        let mut columns = vec![Vec::new(); header.len()];
+        for (index, line) in lines {
+            let fields: Vec<&str> = line.split(',').collect();
+            if fields.len() != header.len() {
+                let n = fields.len();
+                let m = header.len();
+                return Err(bad(index + 1, format!("{n} fields, the header has {m}")));
+            }
+            for ((name, field), column) in header.iter().zip(&fields).zip(&mut columns) {
+                let value = field.trim().parse::<f64>().map_err(|_| {
+                    bad(
+                        index + 1,
+                        format!("column `{name}`: `{field}` is not a number"),
+                    )
+                })?;
+                column.push(value);
+            }
+        }
+        Ok(Self {
+            path: path.to_path_buf(),
+            header,
+            columns,
+        })
+    }
+
+    /// The column called `name`, or `None`.
+    pub fn get(&self, name: &str) -> Option<&[f64]> {
+        let k = self.header.iter().position(|h| h == name)?;
+        self.columns.get(k).map(Vec::as_slice)
+    }
+
+    /// The column called `name`; else an invalid `key` listing the available columns.
+    pub fn column(&self, key: &str, name: &str) -> Result<&[f64]> {
+        self.get(name).ok_or_else(|| {
+            let path = self.path.display();
+            let available = self.header.join(", ");
+            Error::invalid(
+                key,
+                name,
+                format!("no such column in {path} (available: {available})"),
+            )
+        })
+    }
+}
+
+/// `(x, y)` sorted by `x` (ties keep file order).
+fn sorted(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mut pairs: Vec<(f64, f64)> = x.iter().copied().zip(y.iter().copied()).collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pairs.into_iter().unzip()
+}
+
+/// The directory's name, with ` (basis / reconstruction)` from its `summary.json` if readable.
+fn default_label(run: &Path) -> String {
+    let name = run
+        .canonicalize()
+        .ok()
+        .and_then(|p| p.file_name().map(|s| s.to_string_lossy().into_owned()))
+        .unwrap_or_else(|| run.display().to_string());
+    let summary = std::fs::read_to_string(run.join("summary.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<serde_json::Value>(&text).ok());
+    let field = |key: &str| {
+        let value = summary.as_ref()?.get(key)?.as_str()?;
+        Some(value.to_string())
+    };
+    match (field("basis"), field("reconstruction")) {
+        (Some(basis), Some(reconstruction)) => format!("{name} ({basis} / {reconstruction})"),
+        _ => name,
+    }
+}
+
+/// Draw the overlay; returns the path of the SVG written.
+pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
+    if options.runs.is_empty() {
+        return Err(Error::invalid("RUN_DIR", "(none)", "give at least one run"));
+    }
+    if options.labels.len() > options.runs.len() {
+        let (l, r) = (options.labels.len(), options.runs.len());
+        return Err(Error::invalid(
+            "--label",
+            options.labels[r..].join(", "),
+            format!("{l} labels for {r} runs"),
+        ));
+    }
+    let field = options.field.as_str();
+    let (axis, axis_label) = options.axis.names();
+    let mut data = Vec::with_capacity(options.runs.len());
+    let mut exact = None;
+    for (k, run) in options.runs.iter().enumerate() {
+        let table = Table::read(&run.join("particles.csv"))?;
+        let label = match options.labels.get(k) {
+            Some(label) => label.clone(),
+            None => default_label(run),
+        };
+        let (x, y) = sorted(
+            table.column("--axis", axis)?,
+            table.column("--field", field)?,
+        );
+        if options.exact && k == 0 {
+            let name = format!("{field}_exact");
+            exact = Some(sorted(
+                table.column("--axis", axis)?,
+                table.column("--exact", &name)?,
+            ));
+        }
+        data.push((label, x, y));
+    }
+    let mut series: Vec<Series> = data
+        .iter()
+        .map(|(label, x, y)| Series {
+            label,
+            x,
+            y,
+            style: Style::Points,
+        })
+        .collect();
+    if let Some((x, y)) = &exact {
+        series.push(Series {
+            label: "exact",
+            x,
+            y,
+            style: Style::Line,
+        });
+    }
+    let path = options
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("overlay_{field}.svg")));
+    let title = format!("{field} of {} runs", options.runs.len());
+    let axes = Axes {
+        title: &title,
+        x_label: axis_label,
+        y_label: field,
+    };
+    profile_plot(&path, &axes, &series)?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, text: &str) -> PathBuf {
+        let path = dir.join("particles.csv");
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn parses_columns_of_a_small_csv() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            dir.path(),
+            "x0,x,stress\n2e-1,2.1e-1,-1e0\n1e-1,1e-1,3.5e2\n\n",
+        );
+        let table = Table::read(&path).unwrap();
+        assert_eq!(table.header, ["x0", "x", "stress"]);
+        assert_eq!(table.get("stress").unwrap(), [-1.0, 350.0]);
+        let (x, y) = sorted(table.get("x0").unwrap(), table.get("stress").unwrap());
+        assert_eq!((x, y), (vec![0.1, 0.2], vec![350.0, -1.0]));
+    }
+
+    #[test]
+    fn missing_column_lists_the_available_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(dir.path(), "x0,x,stress\n1e0,1e0,0e0\n");
+        let table = Table::read(&path).unwrap();
+        let err = table.column("--field", "nope").unwrap_err();
+        let message = err.to_string();
+        assert!(err.is_input_error());
+        assert!(
+            message.contains("nope") && message.contains("x0, x, stress"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn bad_number_names_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(dir.path(), "x0,stress\n1e0,2e0\n2e0,abc\n");
+        let err = Table::read(&path).unwrap_err();
+        let message = err.to_string();
+        assert!(err.is_input_error());
+        assert!(message.contains(&path.display().to_string()), "{message}");
+        assert!(
+            message.contains("line 3") && message.contains("abc"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn too_many_labels_and_missing_run_are_input_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "x0,x,stress\n1e0,1e0,0e0\n");
+        let mut options = OverlayOptions {
+            runs: vec![dir.path().to_path_buf()],
+            field: "stress".into(),
+            axis: Axis::Initial,
+            labels: vec!["a".into(), "b".into()],
+            exact: false,
+            out: Some(dir.path().join("o.svg")),
+        };
+        assert!(overlay(&options)
+            .unwrap_err()
+            .to_string()
+            .contains("--label"));
+        options.labels.clear();
+        options.exact = true;
+        let message = overlay(&options).unwrap_err().to_string();
+        assert!(message.contains("stress_exact"), "{message}");
+        options.exact = false;
+        assert_eq!(overlay(&options).unwrap(), dir.path().join("o.svg"));
+        options.runs.push(dir.path().join("missing"));
+        let err = overlay(&options).unwrap_err();
+        assert!(err.is_input_error() && err.to_string().contains("missing"));
+    }
+}
