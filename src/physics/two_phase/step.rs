@@ -301,27 +301,24 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
         {
             *c = s - w;
         }
-        let slip = &mut self.coupling;
-        match (&bar.fields.consistent_mass, self.acceleration_mass) {
-            (Some(matrix), MassKind::Consistent) => {
-                matrix.mul_vec(slip, &mut liquid.fields.external_force);
-                for (f, m) in liquid
-                    .fields
-                    .external_force
-                    .iter_mut()
-                    .zip(&liquid.fields.mass)
-                {
-                    *f = drag * *f + body * m;
-                }
-            }
-            _ => {
-                let lumped = liquid.fields.mass.iter().zip(&bar.fields.mass).zip(&*slip);
-                for (f, ((m_w, mbar_w), slip)) in
-                    liquid.fields.external_force.iter_mut().zip(lumped)
-                {
-                    *f = body * m_w + drag * mbar_w * slip;
-                }
-            }
+        let consistent = match self.acceleration_mass {
+            MassKind::Consistent => bar.fields.consistent_mass.as_ref(),
+            MassKind::Lumped => None,
+        };
+        // external_force = Mbar_w (v_s - v_w), then scaled and the body force added.
+        apply_mass(
+            consistent,
+            &bar.fields.mass,
+            &self.coupling,
+            &mut liquid.fields.external_force,
+        );
+        for (f, m_w) in liquid
+            .fields
+            .external_force
+            .iter_mut()
+            .zip(&liquid.fields.mass)
+        {
+            *f = drag * *f + body * m_w;
         }
         let surfaces = quadrature(particles, bins).material_extent();
         self.boundary.liquid.add_surface_tractions(
@@ -336,19 +333,12 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
             .map_err(|e| at_step(e, step, time))?;
 
         // 3. Mixture: total-stress internal force, coupling Mbar_w a_w; a_s.
-        let a_w = &liquid.fields.acceleration;
-        match (&bar.fields.consistent_mass, self.acceleration_mass) {
-            (Some(matrix), MassKind::Consistent) => matrix.mul_vec(a_w, &mut self.coupling),
-            _ => {
-                for (c, (m, a)) in self
-                    .coupling
-                    .iter_mut()
-                    .zip(bar.fields.mass.iter().zip(a_w))
-                {
-                    *c = m * a;
-                }
-            }
-        }
+        apply_mass(
+            consistent,
+            &bar.fields.mass,
+            &liquid.fields.acceleration,
+            &mut self.coupling,
+        );
         for i in 0..solid.fields.mass.len() {
             solid.fields.internal_force[i] += liquid.fields.internal_force[i];
             solid.fields.external_force[i] =
@@ -499,6 +489,18 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
             ]
         });
         (kinetic, stored)
+    }
+}
+
+/// `out = M x` with the consistent matrix `M` when given, else with the lumped `m`.
+fn apply_mass(consistent: Option<&CsrMatrix>, lumped: &[f64], x: &[f64], out: &mut [f64]) {
+    match consistent {
+        Some(matrix) => matrix.mul_vec(x, out),
+        None => {
+            for (o, (m, x)) in out.iter_mut().zip(lumped.iter().zip(x)) {
+                *o = m * x;
+            }
+        }
     }
 }
 
