@@ -11,6 +11,10 @@
 //!   cell, `dt = 1e-7`) with `N` particles on `N / 12` cells. The throughput is in
 //!   particle-steps per second ("elements"). `serial` runs in a 1-thread rayon pool,
 //!   `parallel` in a pool of `std::thread::available_parallelism()` threads.
+//! * `two_phase_step/{mpm,mpm_tls,bsmpm_tls}/N`: one step of the small consolidation
+//!   (`scenarios/consolidation.toml`, SPEC §2.1: three mapped phases, 4 particles per
+//!   cell) with `N` particles, in the parallel pool; compare with `mpm_step/parallel/N` for
+//!   the cost of the second phase.
 //! * `memory_bandwidth/triad_{serial,parallel}`: `a[i] = b[i] + s c[i]` over three arrays
 //!   of 2^24 `f64` (384 MiB), counted as `3 * 8` bytes per element (STREAM convention: no
 //!   write-allocate traffic).
@@ -39,7 +43,7 @@ struct Bar {
 impl Bar {
     fn new(particles: usize) -> Self {
         let cells = (particles / PER_CELL).max(1);
-        let overrides = [
+        let overrides = vec![
             format!("grid.cells={cells}"),
             format!("particles.per_cell={PER_CELL}"),
             "method.basis=\"linear\"".to_string(),
@@ -48,11 +52,17 @@ impl Bar {
             "method.scheme=\"musl\"".to_string(),
             "time.dt=1.0e-7".to_string(),
         ];
-        let scenario = tlsmpm::config::from_str(SCENARIO, "vibrating_bar.toml", &overrides)
+        let bar = Self::from_scenario(SCENARIO, &overrides);
+        assert_eq!(bar.sim.particles.len(), cells * PER_CELL);
+        bar
+    }
+
+    /// Any scenario text with overrides.
+    fn from_scenario(text: &str, overrides: &[String]) -> Self {
+        let scenario = tlsmpm::config::from_str(text, "bench", overrides)
             .unwrap_or_else(|e| panic!("bench scenario: {e}"));
         let (problem, sim) =
             build_simulation(&scenario, false).unwrap_or_else(|e| panic!("bench build: {e}"));
-        assert_eq!(sim.particles.len(), cells * PER_CELL);
         Self { problem, sim }
     }
 
@@ -103,6 +113,38 @@ fn mpm_step(c: &mut Criterion) {
             let mut bar = pool.install(|| Bar::new(n));
             group.bench_function(BenchmarkId::new(*name, n), |b| {
                 pool.install(|| b.iter(|| black_box(bar.step())));
+            });
+        }
+    }
+    group.finish();
+}
+
+const CONSOLIDATION: &str = include_str!("../scenarios/consolidation.toml");
+
+fn two_phase_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("two_phase_step");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    let pool = pool(parallel_threads());
+    let methods = [
+        ("mpm", "linear", "none", "lumped"),
+        ("mpm_tls", "linear", "tls", "lumped"),
+        ("bsmpm_tls", "bspline", "tls", "consistent"),
+    ];
+    for n in [10_000, 100_000] {
+        group.throughput(Throughput::Elements(n as u64));
+        for (name, basis, reconstruction, mass) in methods {
+            let overrides = vec![
+                format!("grid.cells={}", n / 4),
+                format!("method.basis=\"{basis}\""),
+                format!("method.reconstruction=\"{reconstruction}\""),
+                format!("method.mass=\"{mass}\""),
+            ];
+            let mut column = pool.install(|| Bar::from_scenario(CONSOLIDATION, &overrides));
+            group.bench_function(BenchmarkId::new(name, n), |b| {
+                pool.install(|| b.iter(|| black_box(column.step())));
             });
         }
     }
@@ -161,5 +203,5 @@ fn memory_bandwidth(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, mpm_step, memory_bandwidth);
+criterion_group!(benches, mpm_step, two_phase_step, memory_bandwidth);
 criterion_main!(benches);

@@ -349,6 +349,10 @@ fn bad_two_phase_input_names_the_key() {
         ),
         ("method.scheme=usl", &["`method.scheme`", "MUSL"][..]),
         ("material.skeleton=neo", &["material.skeleton", "neo"][..]),
+        (
+            "problem.reference=ulfem",
+            &["`problem.reference`", "Terzaghi"][..],
+        ),
     ] {
         expect_input_error(CONSOLIDATION, &[TINY, set], &[], needles);
     }

@@ -182,6 +182,14 @@ pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     match scenario.problem.reference {
         ReferenceKind::Exact => Ok(problem),
         ReferenceKind::Ulfem => {
+            if scenario.problem.kind == ProblemKind::Consolidation {
+                return Err(Error::invalid(
+                    "problem.reference",
+                    "\"ulfem\"",
+                    "the ULFEM reference is one-phase; consolidation compares with Terzaghi \
+                     (\"exact\")",
+                ));
+            }
             let material = Material::require(&scenario.material)?;
             Ok(Box::new(UlfemReference::new(
                 problem,
