@@ -370,6 +370,23 @@ fn bad_two_phase_input_names_the_key() {
         &[],
         &["`material.model`", "consolidation"],
     );
+    // Neo-Hookean needs both moduli, and they are rejected for the other models.
+    expect_input_error(
+        BAR,
+        &[
+            TINY,
+            "material.model=neo_hookean",
+            "material.lame_lambda=5.77e6",
+        ],
+        &[],
+        &["`material.shear_modulus`", "required", "neo_hookean"],
+    );
+    expect_input_error(
+        BAR,
+        &[TINY, "material.shear_modulus=3.85e6"],
+        &[],
+        &["`material.shear_modulus`", "neo_hookean"],
+    );
     expect_input_error(
         BAR,
         &[TINY, "problem.load=-1e4"],

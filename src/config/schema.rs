@@ -88,7 +88,8 @@ pub enum MaterialModel {
     Linear,
     /// Large strain (Hill): `dsigma = (E - sigma) deps`.
     Hill,
-    /// 1D neo-Hookean (not available yet).
+    /// 1D neo-Hookean: `sigma = lambda ln(F)/F + mu (F - 1/F)` (SPEC §6.5), keys
+    /// `shear_modulus`, `lame_lambda`.
     NeoHookean,
     /// Saturated two-phase soil (SPEC §1.2): solid skeleton and pore liquid on the same
     /// particles; the skeleton law is `material.skeleton`.
@@ -119,6 +120,12 @@ pub struct MaterialConfig {
     /// Young's modulus in Pa.
     #[serde(default = "default_youngs_modulus")]
     pub youngs_modulus: f64,
+    /// Neo-Hookean: shear modulus `mu` in Pa (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shear_modulus: Option<f64>,
+    /// Neo-Hookean: Lamé's `lambda` in Pa (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lame_lambda: Option<f64>,
     /// Two-phase: porosity `n` (default 0.4).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub porosity: Option<f64>,
@@ -158,6 +165,8 @@ impl Default for MaterialConfig {
             model: MaterialModel::default(),
             density: default_density(),
             youngs_modulus: default_youngs_modulus(),
+            shear_modulus: None,
+            lame_lambda: None,
             porosity: None,
             density_solid: None,
             density_liquid: None,

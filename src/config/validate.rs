@@ -99,8 +99,29 @@ impl Scenario {
         if self.problem.kind == ProblemKind::MmsBar {
             return not_yet("problem.kind", "mms_bar");
         }
-        if self.material.model == MaterialModel::NeoHookean {
-            return not_yet("material.model", "neo_hookean");
+        let neo_hookean = self.material.model == MaterialModel::NeoHookean;
+        for (key, value) in [
+            ("material.shear_modulus", self.material.shear_modulus),
+            ("material.lame_lambda", self.material.lame_lambda),
+        ] {
+            match (neo_hookean, value) {
+                (true, Some(v)) => require_positive(key, v)?,
+                (true, None) => {
+                    return Err(Error::invalid(
+                        key,
+                        "(missing)",
+                        "required by material.model = \"neo_hookean\"",
+                    ))
+                }
+                (false, Some(v)) => {
+                    return Err(Error::invalid(
+                        key,
+                        display_float(v),
+                        "only used by material.model = \"neo_hookean\"",
+                    ))
+                }
+                (false, None) => {}
+            }
         }
         // The two-phase physics and the consolidation problem go together.
         let two_phase = self.material.model == MaterialModel::TwoPhase;

@@ -59,6 +59,8 @@ pub struct Particles {
     pub density: Vec<f64>,
     /// Constant mass `m_p`.
     pub mass: Vec<f64>,
+    /// Deformation gradient `F_p` (1D stretch, `V_p = F_p V_p^0`).
+    pub deformation_gradient: Vec<f64>,
     /// Current cell of each particle.
     pub cell: Vec<usize>,
     /// Pore-liquid fields (two-phase materials only).
@@ -93,6 +95,7 @@ impl Particles {
             volume: vec![sub; n],
             density: vec![density; n],
             mass: vec![density * sub; n],
+            deformation_gradient: vec![1.0; n],
             cell: (0..n).map(|k| k / per_cell).collect(),
             x0,
             liquid: None,
@@ -110,6 +113,7 @@ impl Particles {
             &mut self.volume,
             &mut self.density,
             &mut self.mass,
+            &mut self.deformation_gradient,
         ]
         .into_iter()
         .chain(self.liquid.iter_mut().flat_map(|l| {

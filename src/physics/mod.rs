@@ -12,6 +12,6 @@ pub mod two_phase;
 
 pub use boundary::Boundary;
 pub use mass::{MassSystem, SolverTotals};
-pub use material::{ConstitutiveLaw, Hill, LinearElastic, Material};
+pub use material::{ConstitutiveLaw, Hill, LinearElastic, Material, NeoHookean};
 pub use simulation::{HistoryRow, Simulation};
 pub use step::{StepReport, Stepper};

@@ -192,6 +192,14 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                 dt,
                 law,
             ),
+            Material::NeoHookean(law) => update_particles(
+                &self.basis,
+                &self.grid,
+                particles,
+                &fields.velocity,
+                dt,
+                law,
+            ),
         };
         outcome.check(particles, step, time)?;
         if !mass_error.is_finite() {
@@ -359,11 +367,14 @@ pub(crate) fn update_particles<B: Basis, L: ConstitutiveLaw>(
         particles.volume.par_chunks_mut(PARTICLES_PER_TASK),
         particles.density.par_chunks_mut(PARTICLES_PER_TASK),
         particles.cell.par_chunks_mut(PARTICLES_PER_TASK),
+        particles
+            .deformation_gradient
+            .par_chunks_mut(PARTICLES_PER_TASK),
     );
     let (crossings, failure) = chunks
         .into_par_iter()
         .enumerate()
-        .map(|(chunk, (x, u, stress, volume, density, cell))| {
+        .map(|(chunk, (x, u, stress, volume, density, cell, f))| {
             let start = chunk * PARTICLES_PER_TASK;
             let mut shape = Shape::default();
             let mut crossings = 0usize;
@@ -374,7 +385,8 @@ pub(crate) fn update_particles<B: Basis, L: ConstitutiveLaw>(
                 let deps = dt * shape.gradient(velocity);
                 u[k] += du;
                 x[k] += du;
-                stress[k] = law.update(stress[k], deps);
+                f[k] *= 1.0 + deps;
+                stress[k] = law.update(stress[k], deps, f[k]);
                 volume[k] *= 1.0 + deps;
                 density[k] /= 1.0 + deps;
                 let bad = if !v[start + k].is_finite() {
@@ -462,7 +474,8 @@ impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
         let [kinetic, strain] = deterministic_sums(p.len(), |k| {
             [
                 0.5 * p.mass[k] * p.v[k] * p.v[k],
-                p.volume[k] * material.strain_energy_density(p.stress[k]),
+                p.volume[k]
+                    * material.strain_energy_density(p.stress[k], p.deformation_gradient[k]),
             ]
         });
         (kinetic, strain)

@@ -259,6 +259,7 @@ impl Ulfem {
         match self.setup.material {
             Material::Linear(law) => self.run_steps(law, target, body_acceleration),
             Material::Hill(law) => self.run_steps(law, target, body_acceleration),
+            Material::NeoHookean(law) => self.run_steps(law, target, body_acceleration),
         }
     }
 
@@ -272,6 +273,8 @@ impl Ulfem {
         let dt = self.dt_fe;
         let boundary = self.setup.boundary;
         let ends = (0, self.x0.len() - 1);
+        // Uniform initial elements: F_e = l_e / l_e^0.
+        let initial_length = self.setup.length / (self.x0.len() - 1) as f64;
         let Self {
             x,
             u,
@@ -311,8 +314,8 @@ impl Ulfem {
             let mut stress_ok = true;
             for (e, (s, l)) in stress.iter_mut().zip(len.iter_mut()).enumerate() {
                 let deps = dt * (v[e + 1] - v[e]) / *l;
-                *s = law.update(*s, deps);
                 *l *= 1.0 + deps;
+                *s = law.update(*s, deps, *l / initial_length);
                 stress_ok &= s.is_finite();
             }
             // Displacements and positions.

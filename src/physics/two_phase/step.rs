@@ -441,6 +441,14 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
                 dt,
                 law,
             ),
+            Material::NeoHookean(law) => update_particles(
+                basis,
+                &self.grid,
+                particles,
+                &solid.fields.velocity,
+                dt,
+                law,
+            ),
         };
         outcome.check(particles, step, time)?;
         if particles
@@ -484,8 +492,10 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
                 0.5 * (particles.mass[p] * particles.v[p] * particles.v[p]
                     + n * liquid.mass[p] * v_w * v_w),
                 particles.volume[p]
-                    * (skeleton.strain_energy_density(particles.stress[p])
-                        + 0.5 * n * pressure * pressure / k_w),
+                    * (skeleton.strain_energy_density(
+                        particles.stress[p],
+                        particles.deformation_gradient[p],
+                    ) + 0.5 * n * pressure * pressure / k_w),
             ]
         });
         (kinetic, stored)
