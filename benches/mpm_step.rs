@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Duration;
 use tlsmpm::app::build::build_simulation;
-use tlsmpm::physics::Simulation;
+use tlsmpm::physics::{Body, Simulation};
 use tlsmpm::problems::Problem;
 
 const SCENARIO: &str = include_str!("../scenarios/vibrating_bar.toml");
@@ -74,7 +74,7 @@ impl Bar {
         let report = self
             .sim
             .stepper
-            .step(&mut self.sim.particles, body, step, time)
+            .step(&mut self.sim.particles, Body::Uniform(body), step, time)
             .unwrap_or_else(|e| panic!("step {step} failed: {e}"));
         self.sim.steps_done = step;
         report

@@ -106,7 +106,7 @@ usage: profile_step [--particles N] [--steps S] [--out FILE]
                 .stepper
                 .step(
                     &mut sim.particles,
-                    problem.body_acceleration(time),
+                    tlsmpm::physics::Body::Uniform(problem.body_acceleration(time)),
                     step,
                     time,
                 )

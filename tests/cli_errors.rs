@@ -351,7 +351,7 @@ fn bad_two_phase_input_names_the_key() {
         ("material.skeleton=neo", &["material.skeleton", "neo"][..]),
         (
             "problem.reference=ulfem",
-            &["`problem.reference`", "Terzaghi"][..],
+            &["`problem.reference`", "exact"][..],
         ),
     ] {
         expect_input_error(CONSOLIDATION, &[TINY, set], &[], needles);
@@ -402,6 +402,29 @@ fn bad_two_phase_input_names_the_key() {
     );
 }
 
+#[test]
+fn bad_mms_input_names_the_key() {
+    const MMS: &str = "scenarios/mms_bar.toml";
+    expect_input_error(
+        MMS,
+        &[TINY, "material.model=linear", "material.shear_modulus=1"],
+        &[],
+        &["`material.shear_modulus`", "neo_hookean"],
+    );
+    expect_input_error(
+        BAR,
+        &[TINY, "problem.amplitude=0.1"],
+        &[],
+        &["`problem.amplitude`", "vibrating_bar"],
+    );
+    expect_input_error(
+        MMS,
+        &[TINY, "problem.amplitude=inf"],
+        &[],
+        &["`problem.amplitude`", "finite"],
+    );
+}
+
 // ---- 9. documented but unavailable methods --------------------------------------------
 
 #[test]
@@ -412,7 +435,11 @@ fn unavailable_methods_name_their_key() {
             "`method.reconstruction`",
             "imls",
         ),
-        ("problem.kind=mms_bar", "`problem.kind`", "mms_bar"),
+        (
+            "method.reconstruction=mls",
+            "`method.reconstruction`",
+            "mls",
+        ),
     ] {
         expect_input_error(BAR, &[TINY, set], &[], &[key, value, "not available"]);
     }

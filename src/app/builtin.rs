@@ -39,6 +39,12 @@ pub const BUILTIN: &[Builtin] = &[
                       BSMPM-TLS lumped, 120 cells, 16 PPC, 0.4 s",
         toml: include_str!("../../scenarios/consolidation_large.toml"),
     },
+    Builtin {
+        name: "mms_bar",
+        description: "manufactured-solution bar (SPEC 6.5): neo-Hookean, A = 0.1 m, body force \
+                      at the particles, 32 cells, 3 PPC",
+        toml: include_str!("../../scenarios/mms_bar.toml"),
+    },
 ];
 
 /// The built-in scenario called `name`, if any.

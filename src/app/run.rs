@@ -15,7 +15,7 @@ use crate::output::summary::{Conservation, Errors, SolverSummary};
 use crate::output::Summary;
 use crate::particles::Particles;
 use crate::physics::Simulation;
-use crate::problems::{Field, PlotAxis, Problem};
+use crate::problems::{Field, PlotAxis, Problem, ProblemBody};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -48,7 +48,7 @@ pub fn run(
     let outcome = pool.install(|| {
         simulation.run(
             n_steps,
-            &|t| problem.body_acceleration(t),
+            &ProblemBody(problem.as_ref()),
             &mut |sim: &Simulation| {
                 progress(sim.steps_done, n_steps);
                 // Snapshot k of `snapshots` at step ceil(k n / snapshots), the last one final.

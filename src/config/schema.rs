@@ -30,7 +30,7 @@ pub enum ProblemKind {
     ColumnCompaction,
     /// SPEC §6.6 (two-phase Terzaghi consolidation).
     Consolidation,
-    /// SPEC §6.5 (neo-Hookean MMS bar; not available yet).
+    /// SPEC §6.5 (neo-Hookean manufactured-solution bar).
     MmsBar,
 }
 
@@ -48,6 +48,9 @@ pub struct ProblemConfig {
     /// Column compaction: final signed body acceleration in m/s² (default -200).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity: Option<f64>,
+    /// MMS bar: amplitude `A` of the manufactured displacement in m (default 0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude: Option<f64>,
     /// Consolidation: signed load `q` on the top in Pa (default -1e4, compression).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load: Option<f64>,

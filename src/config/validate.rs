@@ -96,9 +96,6 @@ impl Scenario {
                 "not available in this version of tlsmpm",
             ))
         };
-        if self.problem.kind == ProblemKind::MmsBar {
-            return not_yet("problem.kind", "mms_bar");
-        }
         let neo_hookean = self.material.model == MaterialModel::NeoHookean;
         for (key, value) in [
             ("material.shear_modulus", self.material.shear_modulus),

@@ -2,6 +2,7 @@
 //! Euler–Cromer step (SPEC §2), the two-phase MUSL step (SPEC §1.2, §2.1, [`two_phase`])
 //! and the time loop with its diagnostics.
 
+pub mod body;
 pub mod boundary;
 pub mod mass;
 pub mod material;
@@ -10,6 +11,7 @@ pub mod stability;
 pub mod step;
 pub mod two_phase;
 
+pub use body::{Body, BodySource};
 pub use boundary::Boundary;
 pub use mass::{MassSystem, SolverTotals};
 pub use material::{ConstitutiveLaw, Hill, LinearElastic, Material, NeoHookean};

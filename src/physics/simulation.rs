@@ -3,6 +3,7 @@
 //! energies, cumulative grid crossings).
 
 use super::step::TimeStepper;
+use super::{Body, BodySource};
 use crate::error::Result;
 use crate::particles::Particles;
 
@@ -40,6 +41,8 @@ pub struct Simulation {
     /// Time at step 0 (`problem.start_time`; the exact solution's time of the initial
     /// state).
     pub start_time: f64,
+    /// Per-particle body force of the current step (reused buffer).
+    body_field: Vec<f64>,
 }
 
 impl Simulation {
@@ -55,6 +58,7 @@ impl Simulation {
             max_liquid_mass_error: None,
             max_liquid_momentum_error: None,
             start_time: 0.0,
+            body_field: Vec::new(),
         }
     }
 
@@ -79,22 +83,37 @@ impl Simulation {
         self.stepper.energies(&self.particles)
     }
 
-    /// Run `n_steps` steps. `body(t)` is the signed body acceleration at time `t` (applied
-    /// at the end time of each step); `after_step(sim)` is called after every step (progress,
-    /// snapshots). On failure `steps_done` and `history` stop at the last completed step;
+    /// Run `n_steps` steps. `body` gives the body force of each step (a closure `|t| b(t)`
+    /// for a uniform one, evaluated at the end time of each step; see [`BodySource`]);
+    /// `after_step(sim)` is called after every step (progress, snapshots). On failure `steps_done` and `history` stop at the last completed step;
     /// the particles hold the state of the failing step at the moment it was detected.
     pub fn run(
         &mut self,
         n_steps: usize,
-        body: &dyn Fn(f64) -> f64,
+        body: &dyn BodySource,
         after_step: &mut dyn FnMut(&Simulation) -> Result<()>,
     ) -> Result<()> {
         for _ in 0..n_steps {
             let step = self.steps_done + 1;
             let time = self.time_at(step);
-            let report = self
-                .stepper
-                .step(&mut self.particles, body(time), step, time)?;
+            let report = match body.uniform(time) {
+                Some(b) => self
+                    .stepper
+                    .step(&mut self.particles, Body::Uniform(b), step, time)?,
+                None => {
+                    let mut field = std::mem::take(&mut self.body_field);
+                    field.resize(self.particles.len(), 0.0);
+                    body.at_particles(&self.particles.x0, self.time_at(step - 1), &mut field);
+                    let report = self.stepper.step(
+                        &mut self.particles,
+                        Body::PerParticle(&field),
+                        step,
+                        time,
+                    );
+                    self.body_field = field;
+                    report?
+                }
+            };
             self.steps_done = step;
             self.grid_crossings += report.crossings;
             self.max_mass_error = self.max_mass_error.max(report.mass_error);

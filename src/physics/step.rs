@@ -28,7 +28,7 @@ use crate::linalg::CsrMatrix;
 use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, Particles};
-use crate::physics::{Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
+use crate::physics::{Body, Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
 
 /// Particles per rayon task in particle loops.
@@ -63,6 +63,10 @@ pub struct Stepper<B: Basis, M: Mapping> {
     pub bins: CellBins,
     pub mass: MassSystem,
     total_mass: f64,
+    /// A per-particle body force as a momentum-like phase for the mapping, and its grid
+    /// vectors (allocated on first use).
+    body_view: Particles,
+    body_fields: Option<GridFields>,
 }
 
 impl<B: Basis, M: Mapping> Stepper<B, M> {
@@ -103,6 +107,8 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             bins,
             mass,
             total_mass,
+            body_view: Particles::default(),
+            body_fields: None,
         }
     }
 
@@ -111,7 +117,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
     pub fn step(
         &mut self,
         particles: &mut Particles,
-        body_acceleration: f64,
+        body: Body<'_>,
         step: usize,
         time: f64,
     ) -> Result<StepReport> {
@@ -127,8 +133,25 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             .map_mass_and_internal_force(&self.basis, particles, &self.bins, fields);
         let grid_mass: f64 = fields.mass.iter().sum();
         let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
-        for (f, m) in fields.external_force.iter_mut().zip(&fields.mass) {
-            *f = body_acceleration * m;
+        match body {
+            Body::Uniform(b) => {
+                for (f, m) in fields.external_force.iter_mut().zip(&fields.mass) {
+                    *f = b * m;
+                }
+            }
+            Body::PerParticle(b) => {
+                // int (rho b)_hat phi, mapped like a momentum (same positions, same fits).
+                let density = &particles.density;
+                let mass = &particles.mass;
+                sync_view(&mut self.body_view, particles, |p| mass[p], None, b);
+                copy_into(&mut self.body_view.density, density);
+                let body_fields = self
+                    .body_fields
+                    .get_or_insert_with(|| GridFields::new(fields.mass.len()));
+                self.mapping
+                    .map_momentum(&self.basis, &self.body_view, &self.bins, body_fields);
+                fields.external_force.copy_from_slice(&body_fields.momentum);
+            }
         }
         if self.boundary.has_tractions() {
             let surfaces = quadrature(particles, &self.bins).material_extent();
@@ -220,6 +243,42 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             ..StepReport::default()
         })
     }
+}
+
+/// Fill `view` with the positions of `particles` and a phase (a liquid, or a body-force
+/// density) with masses
+/// `mass(p)`, stresses `stress` (0 if `None`) and velocities `velocity`, reusing its
+/// buffers.
+pub(crate) fn sync_view(
+    view: &mut Particles,
+    particles: &Particles,
+    mass: impl Fn(usize) -> f64,
+    stress: Option<&[f64]>,
+    velocity: &[f64],
+) {
+    let n = particles.len();
+    copy_into(&mut view.x, &particles.x);
+    copy_into(&mut view.volume, &particles.volume);
+    view.cell.clear();
+    view.cell.extend_from_slice(&particles.cell);
+    view.mass.clear();
+    view.mass.extend((0..n).map(&mass));
+    view.density.clear();
+    view.density
+        .extend((0..n).map(|p| mass(p) / particles.volume[p]));
+    match stress {
+        Some(s) => copy_into(&mut view.stress, s),
+        None => {
+            view.stress.clear();
+            view.stress.resize(n, 0.0);
+        }
+    }
+    copy_into(&mut view.v, velocity);
+}
+
+pub(crate) fn copy_into(target: &mut Vec<f64>, source: &[f64]) {
+    target.clear();
+    target.extend_from_slice(source);
 }
 
 /// The particles as the quadrature rule of configuration-dependent bases.
@@ -433,7 +492,7 @@ pub trait TimeStepper: Send {
     fn step(
         &mut self,
         particles: &mut Particles,
-        body_acceleration: f64,
+        body: Body<'_>,
         step: usize,
         time: f64,
     ) -> Result<StepReport>;
@@ -455,11 +514,11 @@ impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
     fn step(
         &mut self,
         particles: &mut Particles,
-        body_acceleration: f64,
+        body: Body<'_>,
         step: usize,
         time: f64,
     ) -> Result<StepReport> {
-        Stepper::step(self, particles, body_acceleration, step, time)
+        Stepper::step(self, particles, body, step, time)
     }
     fn dt(&self) -> f64 {
         self.dt

@@ -11,6 +11,7 @@
 
 pub mod column_compaction;
 pub mod consolidation;
+pub mod mms_bar;
 pub mod reference;
 pub mod terzaghi;
 pub mod ulfem;
@@ -18,6 +19,7 @@ pub mod vibrating_bar;
 
 pub use column_compaction::ColumnCompaction;
 pub use consolidation::Consolidation;
+pub use mms_bar::MmsBar;
 pub use reference::UlfemReference;
 pub use vibrating_bar::VibratingBar;
 
@@ -143,8 +145,17 @@ pub trait Problem: Send + Sync {
     fn start_time(&self) -> f64 {
         0.0
     }
-    /// Signed body acceleration at time `t`.
+    /// Signed body acceleration at time `t` (uniform in space).
     fn body_acceleration(&self, t: f64) -> f64;
+    /// Whether the body force varies in space ([`Problem::body_acceleration_at`]).
+    fn body_varies_in_space(&self) -> bool {
+        false
+    }
+    /// Signed body acceleration at material position `x0` and time `t`.
+    fn body_acceleration_at(&self, x0: f64, t: f64) -> f64 {
+        let _ = x0;
+        self.body_acceleration(t)
+    }
     /// Fields with an exact solution.
     fn exact_fields(&self) -> &'static [Field];
     /// Exact value of `field` at material position `x0` and time `t` (`None` if unknown).
@@ -182,12 +193,15 @@ pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
     match scenario.problem.reference {
         ReferenceKind::Exact => Ok(problem),
         ReferenceKind::Ulfem => {
-            if scenario.problem.kind == ProblemKind::Consolidation {
+            if matches!(
+                scenario.problem.kind,
+                ProblemKind::Consolidation | ProblemKind::MmsBar
+            ) {
                 return Err(Error::invalid(
                     "problem.reference",
                     "\"ulfem\"",
-                    "the ULFEM reference is one-phase; consolidation compares with Terzaghi \
-                     (\"exact\")",
+                    "the ULFEM reference takes a uniform body force on a one-phase bar; this \
+                     problem has an exact solution (\"exact\")",
                 ));
             }
             let material = Material::require(&scenario.material)?;
@@ -223,6 +237,9 @@ fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
         p.kind,
         ProblemKind::VibratingBar | ProblemKind::ColumnCompaction
     );
+    if p.kind != ProblemKind::MmsBar {
+        reject("problem.amplitude", p.amplitude)?;
+    }
     if one_phase {
         reject("problem.load", p.load)?;
         reject("problem.start_time", p.start_time)?;
@@ -241,10 +258,30 @@ fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
             reject("problem.gravity", p.gravity)?;
             Ok(Box::new(Consolidation::from_scenario(scenario)?))
         }
-        ProblemKind::MmsBar => Err(Error::invalid(
-            "problem.kind",
-            format!("{:?}", p.kind),
-            "not available in this version of tlsmpm",
-        )),
+        ProblemKind::MmsBar => {
+            reject("problem.v0", p.v0)?;
+            reject("problem.gravity", p.gravity)?;
+            reject("problem.load", p.load)?;
+            reject("problem.start_time", p.start_time)?;
+            Ok(Box::new(MmsBar::from_scenario(scenario)?))
+        }
+    }
+}
+
+/// A problem as the body-force source of the time loop: uniform problems give `b(t)`,
+/// the others `b(X_p, t)` at every particle (in parallel, order independent).
+pub struct ProblemBody<'a>(pub &'a dyn Problem);
+
+impl crate::physics::BodySource for ProblemBody<'_> {
+    fn uniform(&self, t: f64) -> Option<f64> {
+        (!self.0.body_varies_in_space()).then(|| self.0.body_acceleration(t))
+    }
+
+    fn at_particles(&self, x0: &[f64], t: f64, out: &mut [f64]) {
+        use rayon::prelude::*;
+        out.par_iter_mut()
+            .zip(x0.par_iter())
+            .with_min_len(4096)
+            .for_each(|(b, &x)| *b = self.0.body_acceleration_at(x, t));
     }
 }

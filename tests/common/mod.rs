@@ -73,7 +73,7 @@ pub fn simulate(scenario: &Scenario) -> tlsmpm::physics::Simulation {
     simulation
         .run(
             scenario.n_steps(),
-            &|t| problem.body_acceleration(t),
+            &tlsmpm::problems::ProblemBody(problem.as_ref()),
             &mut |_| Ok(()),
         )
         .expect("run succeeds");

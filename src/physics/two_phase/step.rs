@@ -39,10 +39,10 @@ use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, LiquidFields, Particles};
 use crate::physics::step::{
-    at_step, phase_momentum_error, quadrature, update_particles, update_velocities, StepReport,
-    TimeStepper, PARTICLES_PER_TASK,
+    at_step, copy_into, phase_momentum_error, quadrature, sync_view, update_particles,
+    update_velocities, StepReport, TimeStepper, PARTICLES_PER_TASK,
 };
-use crate::physics::{Boundary, MassSystem, Material, SolverTotals};
+use crate::physics::{Body, Boundary, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
 
 /// Boundary conditions of each phase: the solid one carries the total-stress traction, the
@@ -167,51 +167,23 @@ fn missing_liquid() -> Error {
     )
 }
 
-/// Fill `view` with the positions of `particles` and a liquid phase with masses
-/// `mass(p)`, stresses `stress` (0 if `None`) and velocities `velocity`, reusing its
-/// buffers.
-fn sync_view(
-    view: &mut Particles,
-    particles: &Particles,
-    mass: impl Fn(usize) -> f64,
-    stress: Option<&[f64]>,
-    velocity: &[f64],
-) {
-    let n = particles.len();
-    copy_into(&mut view.x, &particles.x);
-    copy_into(&mut view.volume, &particles.volume);
-    view.cell.clear();
-    view.cell.extend_from_slice(&particles.cell);
-    view.mass.clear();
-    view.mass.extend((0..n).map(&mass));
-    view.density.clear();
-    view.density
-        .extend((0..n).map(|p| mass(p) / particles.volume[p]));
-    match stress {
-        Some(s) => copy_into(&mut view.stress, s),
-        None => {
-            view.stress.clear();
-            view.stress.resize(n, 0.0);
-        }
-    }
-    copy_into(&mut view.v, velocity);
-}
-
-fn copy_into(target: &mut Vec<f64>, source: &[f64]) {
-    target.clear();
-    target.extend_from_slice(source);
-}
-
 impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
     /// Advance by one step with body acceleration `body`; `step` and `time` (end of the
     /// step) label failures.
     pub fn step(
         &mut self,
         particles: &mut Particles,
-        body: f64,
+        body: Body<'_>,
         step: usize,
         time: f64,
     ) -> Result<StepReport> {
+        let Body::Uniform(body) = body else {
+            return Err(Error::invalid(
+                "material.model",
+                "\"two_phase\"",
+                "a body force that varies between particles is one-phase only",
+            ));
+        };
         let dt = self.dt;
         let ends = self.basis.boundary_dofs();
         if self.basis.depends_on_particles() {
@@ -571,11 +543,11 @@ impl<B: Basis + 'static, M: Mapping + 'static> TimeStepper for TwoPhaseStepper<B
     fn step(
         &mut self,
         particles: &mut Particles,
-        body_acceleration: f64,
+        body: Body<'_>,
         step: usize,
         time: f64,
     ) -> Result<StepReport> {
-        TwoPhaseStepper::step(self, particles, body_acceleration, step, time)
+        TwoPhaseStepper::step(self, particles, body, step, time)
     }
     fn dt(&self) -> f64 {
         self.dt
