@@ -448,13 +448,17 @@ pub(crate) fn update_particles<B: Basis, L: ConstitutiveLaw>(
                 stress[k] = law.update(stress[k], deps, f[k]);
                 volume[k] *= 1.0 + deps;
                 density[k] /= 1.0 + deps;
+                // A collapsed particle (F <= 0) is named as such, before the NaN stress a
+                // hyperelastic law gives it.
                 let bad = if !v[start + k].is_finite() {
                     Some(Failure::Velocity)
+                } else if f[k] <= 0.0 || volume[k] <= 0.0 {
+                    Some(Failure::Volume)
                 } else if !stress[k].is_finite() {
                     Some(Failure::Stress)
                 } else if !x[k].is_finite() {
                     Some(Failure::Position)
-                } else if volume[k].is_nan() || volume[k] <= 0.0 {
+                } else if volume[k].is_nan() {
                     Some(Failure::Volume)
                 } else {
                     None
