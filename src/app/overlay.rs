@@ -1,4 +1,5 @@
-//! `tlsmpm overlay`: one particle field of several finished runs in one figure.
+//! `tlsmpm overlay`: one particle field of several finished runs in one figure, or (with
+//! `--axis h`) one error column of several finished studies in one log-log figure.
 //!
 //! Reads `RUN_DIR/particles.csv` of each run, takes one column (any name in the header, e.g.
 //! `pore_pressure`, `stress`, `u`) against the initial position `x0` or the current position
@@ -7,11 +8,15 @@
 //! labelled by the given labels, else by the run directory's name followed by the `basis /
 //! reconstruction` of its `summary.json` when that file is there.
 //!
+//! With `--axis h` each directory is a `tlsmpm study` output: the column (e.g.
+//! `rms_displacement`) of its `study.csv` is drawn against the cell size `h` on log-log
+//! axes, one line per study — the comparison plot of several methods' convergence.
+//!
 //! Bad input (a missing file, a column not in the header, an unparsable number, more labels
 //! than runs) is an input error naming the path, line or column; nothing panics.
 
 use crate::error::{Error, Result};
-use crate::output::plot::{profile_plot, Axes, Series, Style};
+use crate::output::plot::{loglog_plot, profile_plot, Axes, Series, Style};
 use std::path::{Path, PathBuf};
 
 /// The horizontal axis of the overlay.
@@ -21,6 +26,8 @@ pub enum Axis {
     Initial,
     /// Current position `x` (column `x`).
     Current,
+    /// Cell size `h` of a study (`study.csv`, log-log axes).
+    MeshSize,
 }
 
 impl Axis {
@@ -29,6 +36,7 @@ impl Axis {
         match name {
             "x0" => Some(Axis::Initial),
             "x" => Some(Axis::Current),
+            "h" => Some(Axis::MeshSize),
             _ => None,
         }
     }
@@ -38,6 +46,15 @@ impl Axis {
         match self {
             Axis::Initial => ("x0", "initial position X [m]"),
             Axis::Current => ("x", "x [m]"),
+            Axis::MeshSize => ("h", "cell size h [m]"),
+        }
+    }
+
+    /// The file read from each directory.
+    fn file(self) -> &'static str {
+        match self {
+            Axis::MeshSize => "study.csv",
+            _ => "particles.csv",
         }
     }
 }
@@ -98,7 +115,13 @@ impl Table {
                 return Err(bad(index + 1, format!("{n} fields, the header has {m}")));
             }
             for ((name, field), column) in header.iter().zip(&fields).zip(&mut columns) {
-                let value = field.trim().parse::<f64>().map_err(|_| {
+                // An empty cell (the first row's order in study.csv) is a missing value.
+                let field = field.trim();
+                if field.is_empty() {
+                    column.push(f64::NAN);
+                    continue;
+                }
+                let value = field.parse::<f64>().map_err(|_| {
                     bad(
                         index + 1,
                         format!("column `{name}`: `{field}` is not a number"),
@@ -179,7 +202,7 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
     let mut data = Vec::with_capacity(options.runs.len());
     let mut exact = None;
     for (k, run) in options.runs.iter().enumerate() {
-        let table = Table::read(&run.join("particles.csv"))?;
+        let table = Table::read(&run.join(options.axis.file()))?;
         let label = match options.labels.get(k) {
             Some(label) => label.clone(),
             None => default_label(run),
@@ -203,7 +226,10 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
             label,
             x,
             y,
-            style: Style::Points,
+            style: match options.axis {
+                Axis::MeshSize => Style::LinePoints,
+                _ => Style::Points,
+            },
         })
         .collect();
     if let Some((x, y)) = &exact {
@@ -224,7 +250,10 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
         x_label: axis_label,
         y_label: field,
     };
-    profile_plot(&path, &axes, &series)?;
+    match options.axis {
+        Axis::MeshSize => loglog_plot(&path, &axes, &series)?,
+        _ => profile_plot(&path, &axes, &series)?,
+    }
     Ok(path)
 }
 
@@ -250,6 +279,30 @@ mod tests {
         assert_eq!(table.get("stress").unwrap(), [-1.0, 350.0]);
         let (x, y) = sorted(table.get("x0").unwrap(), table.get("stress").unwrap());
         assert_eq!((x, y), (vec![0.1, 0.2], vec![350.0, -1.0]));
+    }
+
+    #[test]
+    fn study_mode_reads_study_csv_with_empty_orders_on_log_axes() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("study.csv"),
+            "cells,h,rms_stress,order_stress\n8,1.25e-1,1e3,\n16,6.25e-2,2.5e2,2e0\n",
+        )
+        .unwrap();
+        let table = Table::read(&dir.path().join("study.csv")).unwrap();
+        let orders = table.get("order_stress").unwrap();
+        assert!(orders[0].is_nan() && orders[1] == 2.0);
+        let out = dir.path().join("o.svg");
+        let options = OverlayOptions {
+            runs: vec![dir.path().to_path_buf()],
+            field: "rms_stress".into(),
+            axis: Axis::parse("h").unwrap(),
+            labels: vec!["tls".into()],
+            exact: false,
+            out: Some(out.clone()),
+        };
+        assert_eq!(overlay(&options).unwrap(), out);
+        assert!(std::fs::read_to_string(&out).unwrap().contains("tls"));
     }
 
     #[test]

@@ -95,7 +95,8 @@ enum Command {
         /// Column to plot (any name in the header, e.g. stress, pore_pressure, u).
         #[arg(long)]
         field: String,
-        /// Horizontal axis: x0 (initial position) or x (current position).
+        /// Horizontal axis: x0 (initial position), x (current position), or h (cell size of
+        /// study directories: their study.csv on log-log axes).
         #[arg(long, default_value = "x0")]
         axis: String,
         /// Series label, one per run in order (repeatable) [default: the directory name
@@ -241,7 +242,7 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             out,
         } => {
             let axis = Axis::parse(&axis)
-                .ok_or_else(|| tlsmpm::Error::invalid("--axis", &axis, "expected x0 or x"))?;
+                .ok_or_else(|| tlsmpm::Error::invalid("--axis", &axis, "expected x0, x or h"))?;
             let options = OverlayOptions {
                 runs,
                 field,
