@@ -207,7 +207,24 @@ impl<const F: usize> Moments<F> {
 
 /// Whether the moment matrix of degree `d` (1 or 2) is positive definite with a
 /// condition number at most [`MAX_CONDITION`].
+///
+/// Fast path: a moment matrix is positive semi-definite, so with `det > 0` its eigenvalues
+/// are positive and `kappa = l_max / l_min <= tr^n / det` (`l_max <= tr`, and `l_min`
+/// times the other `n - 1` eigenvalues, each `<= tr`, is `det`); the eigenvalues are only
+/// computed when that bound exceeds the limit.
 fn well_conditioned(mu: &[f64; 5], d: usize) -> bool {
+    let (trace, det) = if d == 1 {
+        (mu[0] + mu[2], mu[0] * mu[2] - mu[1] * mu[1])
+    } else {
+        let minor = |a: f64, b: f64, c: f64, d: f64| a * d - b * c;
+        let det = mu[0] * minor(mu[2], mu[3], mu[3], mu[4])
+            - mu[1] * minor(mu[1], mu[3], mu[2], mu[4])
+            + mu[2] * minor(mu[1], mu[2], mu[2], mu[3]);
+        (mu[0] + mu[2] + mu[4], det)
+    };
+    if det > 0.0 && trace.powi(d as i32 + 1) <= MAX_CONDITION * det {
+        return true;
+    }
     let (lo, hi) = if d == 1 {
         let (mean, diff) = (0.5 * (mu[0] + mu[2]), 0.5 * (mu[0] - mu[2]));
         let r = diff.hypot(mu[1]);
