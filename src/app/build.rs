@@ -106,9 +106,11 @@ pub fn build_simulation(
                 MlsKind::Imls
             };
             let points = gauss_points(scenario);
-            let mapping = MlsMapping::new(grid, points, kind).ok_or_else(|| {
-                Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
-            })?;
+            let mapping = MlsMapping::new(grid, points, kind)
+                .ok_or_else(|| {
+                    Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
+                })?
+                .with_consistent_velocity(method.mass == MassKind::Consistent);
             with_basis(scenario, parts, mapping, &mut particles)?
         }
     };

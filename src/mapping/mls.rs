@@ -31,8 +31,12 @@
 //! * linear basis: nodal velocity `v_i` by a **linear** fit `{1, s}` at the node with the
 //!   same kernel, and `p_i = m_i v_i` with the lumped masses of the preceding
 //!   [`Mapping::map_mass_and_internal_force`] (stored by the mapping), so that the lumped
-//!   solve `v = p / m` returns exactly the (I)MLS nodal velocity; when that call assembled a
-//!   consistent mass, `p = M^C v` (then the consistent solve returns `v`);
+//!   solve `v = p / m` returns exactly the (I)MLS nodal velocity; with a consistent velocity
+//!   mass ([`MlsMapping::with_consistent_velocity`], `method.mass = "consistent"`) and a
+//!   matrix assembled by that call, `p = M^C v` (then the consistent solve returns `v`). The
+//!   per-particle body force goes through the same path (`f_i = m_i b_i` or `M^C b`), so with
+//!   different acceleration and velocity masses (`method.acceleration_mass`) it follows
+//!   the velocity's;
 //! * other bases (B-splines, GIMP, CPDI, DDMPM): the DOFs are not nodal values, so
 //!   `(rho v)_p = rho_p v_p` is reconstructed at the Gauss points with the quadratic fit and
 //!   integrated by [`integrate_momentum`], `p_i = int (rho v)_hat phi_i`.
@@ -295,6 +299,8 @@ pub struct MlsMapping {
     consistent: Option<CsrMatrix>,
     /// Nodal velocities (linear basis).
     nodal: Vec<f64>,
+    /// Whether the velocity solve uses the consistent mass (then `p = M^C v`).
+    consistent_velocity: bool,
 }
 
 impl MlsMapping {
@@ -313,7 +319,15 @@ impl MlsMapping {
             lumped: Vec::new(),
             consistent: None,
             nodal: Vec::new(),
+            consistent_velocity: false,
         })
+    }
+
+    /// With the linear basis, map momentum as `M^C v` (when the mass mapping assembled
+    /// `M^C`) instead of `m_i v_i`: for a consistent velocity solve (`method.mass`).
+    pub fn with_consistent_velocity(mut self, consistent: bool) -> Self {
+        self.consistent_velocity = consistent;
+        self
     }
 
     /// The active part of each cell used by the last mapping.
@@ -461,7 +475,11 @@ impl Mapping for MlsMapping {
                 a
             });
         self.remedies += counts;
-        match &self.consistent {
+        match self
+            .consistent
+            .as_ref()
+            .filter(|_| self.consistent_velocity)
+        {
             Some(matrix) => matrix.mul_vec(&self.nodal, &mut grid.momentum),
             None => {
                 for ((p, m), vi) in grid.momentum.iter_mut().zip(&self.lumped).zip(&self.nodal) {

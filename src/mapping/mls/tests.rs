@@ -209,12 +209,20 @@ fn consistent_mass_momentum_is_the_matrix_times_the_nodal_velocity() {
         |x| 1.0 - 2.0 * x,
     );
     let basis = LinearBasis::new(grid);
-    let mut mapping = MlsMapping::new(grid, 3, MlsKind::Imls).unwrap();
+    let mut mapping = MlsMapping::new(grid, 3, MlsKind::Imls)
+        .unwrap()
+        .with_consistent_velocity(true);
     let fields = map(&mut mapping, &basis, &particles, &bins, true);
     let mut expected = vec![0.0; basis.num_dofs()];
     let matrix = fields.consistent_mass.as_ref().unwrap();
     matrix.mul_vec(&mapping.nodal, &mut expected);
     assert_eq!(fields.momentum, expected);
+    // A lumped velocity solve (consistent acceleration only): p = m v despite M^C.
+    let mut lumped = MlsMapping::new(grid, 3, MlsKind::Imls).unwrap();
+    let fields = map(&mut lumped, &basis, &particles, &bins, true);
+    for ((p, m), v) in fields.momentum.iter().zip(&fields.mass).zip(&lumped.nodal) {
+        assert_eq!(*p, m * v);
+    }
     // The velocity field is linear: nodal values are exact.
     for (i, v) in mapping.nodal.iter().enumerate() {
         assert!((v - (1.0 - 2.0 * i as f64 * grid.h)).abs() < 1e-12);
