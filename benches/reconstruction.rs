@@ -4,6 +4,7 @@
 //! ```text
 //! cargo bench --bench reconstruction                          # everything (long)
 //! cargo bench --bench reconstruction -- 'mapping/serial/.*/16ppc'
+//! cargo bench --bench reconstruction -- mapping_mls
 //! ```
 //!
 //! `mapping/{serial,parallel}/{direct,tls,tls_consistent}/{P}ppc/{N}`: one step's mapping
@@ -15,6 +16,10 @@
 //! `mapping_bspline2/...` is the same with quadratic B-splines (4 Gauss points per cell):
 //! there the direct mapping pays a B-spline evaluation per particle, TLS one per Gauss
 //! point.
+//! `mapping_mls/{serial,parallel}/{direct,tls,mls,imls}/{P}ppc/100000`: the same step's
+//! mapping of 1e5 particles at 3 and 12 per cell on the linear basis (3 Gauss points per
+//! cell) for the moving-least-squares mappings (SPEC §4.3), which fit density and stress at
+//! every Gauss point over the kernel support (`1.5 h` either side) and velocity at every node.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
@@ -22,7 +27,7 @@ use std::time::Duration;
 use tlsmpm::config::{CellTotals, DegenerateRemedy};
 use tlsmpm::grid::{BSplineBasis, Basis, Grid, LinearBasis};
 use tlsmpm::linalg::CsrMatrix;
-use tlsmpm::mapping::{DirectMapping, GridFields, Mapping, TlsMapping};
+use tlsmpm::mapping::{DirectMapping, GridFields, Mapping, MlsKind, MlsMapping, TlsMapping};
 use tlsmpm::particles::{CellBins, Particles};
 
 const PER_CELL: [usize; 3] = [4, 16, 64];
@@ -119,6 +124,69 @@ fn group<B: Basis, F: Fn(Grid) -> B>(
     }
 }
 
+/// Time one step's mapping by `mapping` as `name` in `group`.
+fn bench_one<M: Mapping>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    id: BenchmarkId,
+    pool: &rayon::ThreadPool,
+    mut mapping: M,
+    (basis, particles, bins): (&LinearBasis, &Particles, &CellBins),
+) {
+    let mut fields = GridFields::new(basis.num_dofs());
+    group.bench_function(id, |b| {
+        b.iter(|| {
+            pool.install(|| map(&mut mapping, basis, particles, bins, &mut fields));
+            black_box(fields.momentum[0])
+        })
+    });
+}
+
+/// Direct, TLS, MLS and IMLS mappings of the same 1e5 particles (linear basis).
+fn mls_group(c: &mut Criterion) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    for (label, threads) in [("serial", 1), ("parallel", cores)] {
+        let pool = pool(threads);
+        let mut group = c.benchmark_group(format!("mapping_mls/{label}"));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(300))
+            .measurement_time(Duration::from_secs(1));
+        for per_cell in [3, 12] {
+            let size = 100_000;
+            let (grid, particles, bins) = setup(size, per_cell);
+            let basis = LinearBasis::new(grid);
+            let data = (&basis, &particles, &bins);
+            group.throughput(Throughput::Elements(particles.len() as u64));
+            let id = |name: &str| BenchmarkId::new(format!("{name}/{per_cell}ppc"), size);
+            bench_one(
+                &mut group,
+                id("direct"),
+                &pool,
+                DirectMapping::default(),
+                data,
+            );
+            let tls = TlsMapping::new(
+                grid,
+                3,
+                DegenerateRemedy::VirtualPoints,
+                CellTotals::Domains,
+            );
+            bench_one(
+                &mut group,
+                id("tls"),
+                &pool,
+                tls.expect("3-point rule"),
+                data,
+            );
+            for (name, kind) in [("mls", MlsKind::Mls), ("imls", MlsKind::Imls)] {
+                let mls = MlsMapping::new(grid, 3, kind).expect("3-point rule");
+                bench_one(&mut group, id(name), &pool, mls, data);
+            }
+        }
+        group.finish();
+    }
+}
+
 fn mapping(c: &mut Criterion) {
     group(c, "mapping", LinearBasis::new, 3);
     group(
@@ -129,5 +197,5 @@ fn mapping(c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, mapping);
+criterion_group!(benches, mapping, mls_group);
 criterion_main!(benches);

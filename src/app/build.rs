@@ -10,7 +10,9 @@ use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::assembly::SplineSpace;
 use crate::linalg::{CoarseOperators, LinearSolver};
-use crate::mapping::{CubicSplineMapping, DirectMapping, Mapping, SubpointMapping, TlsMapping};
+use crate::mapping::{
+    CubicSplineMapping, DirectMapping, Mapping, MlsKind, MlsMapping, SubpointMapping, TlsMapping,
+};
 use crate::particles::Particles;
 use crate::physics::stability::{critical_time_step, critical_time_step_consistent};
 use crate::physics::step::TimeStepper;
@@ -96,12 +98,20 @@ pub fn build_simulation(
             })?;
             with_basis(scenario, parts, mapping, &mut particles)?
         }
-        reconstruction => {
-            return Err(Error::invalid(
-                "method.reconstruction",
-                format!("{reconstruction:?}"),
-                "not available in this version of tlsmpm",
-            ))
+        ReconstructionKind::Mls | ReconstructionKind::Imls => {
+            // SPEC §4.3: the Gauss points of TLS, fits centred at each point.
+            let kind = if method.reconstruction == ReconstructionKind::Mls {
+                MlsKind::Mls
+            } else {
+                MlsKind::Imls
+            };
+            let points = gauss_points(scenario);
+            let mapping = MlsMapping::new(grid, points, kind)
+                .ok_or_else(|| {
+                    Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
+                })?
+                .with_consistent_velocity(method.mass == MassKind::Consistent);
+            with_basis(scenario, parts, mapping, &mut particles)?
         }
     };
     let start_time = problem.start_time();

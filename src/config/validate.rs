@@ -89,13 +89,6 @@ impl Scenario {
     /// Reject the documented keys whose methods are not implemented in this version, with
     /// a message naming the key (never a silent fallback).
     fn check_available(&self) -> Result<()> {
-        let not_yet = |key: &str, value: &str| {
-            Err(Error::invalid(
-                key,
-                format!("\"{value}\""),
-                "not available in this version of tlsmpm",
-            ))
-        };
         let neo_hookean = self.material.model == MaterialModel::NeoHookean;
         for (key, value) in [
             ("material.shear_modulus", self.material.shear_modulus),
@@ -164,13 +157,6 @@ impl Scenario {
                 self.method.subpoints,
                 format!("more than {MAX_SUBPOINTS} sub-points per particle"),
             ));
-        }
-        match self.method.reconstruction {
-            ReconstructionKind::None
-            | ReconstructionKind::Tls
-            | ReconstructionKind::CubicSpline => {}
-            ReconstructionKind::Mls => return not_yet("method.reconstruction", "mls"),
-            ReconstructionKind::Imls => return not_yet("method.reconstruction", "imls"),
         }
         if matches!(self.solver.kind, SolverKind::Pmg | SolverKind::PmgCg) {
             let sweeps = self.solver.pre_smooth + self.solver.post_smooth;

@@ -3,13 +3,15 @@
 //! [`Mapping`] is the plug point: the direct particle quadrature of standard MPM
 //! ([`DirectMapping`]), the conservative Taylor-least-squares reconstruction with Gauss
 //! quadrature ([`TlsMapping`]), the non-conservative global cubic-spline comparator
-//! ([`CubicSplineMapping`]) and DDMPM sub-points ([`SubpointMapping`], SPEC §3.3: the
+//! ([`CubicSplineMapping`]), moving least squares and improved MLS at Gauss points
+//! ([`MlsMapping`], SPEC §4.3) and DDMPM sub-points ([`SubpointMapping`], SPEC §3.3: the
 //! direct quadrature over `N` points per particle domain). Every mapping scatters through [`scatter::CellScatter`]:
 //! per-cell local buffers filled in parallel, then reduced in a fixed cell order, so grid
 //! vectors and the consistent mass matrix are bitwise identical for any thread count.
 
 pub mod cubic_spline;
 pub mod direct;
+pub mod mls;
 pub mod points;
 pub mod quadrature;
 pub mod scatter;
@@ -18,6 +20,7 @@ pub mod tls;
 
 pub use cubic_spline::CubicSplineMapping;
 pub use direct::DirectMapping;
+pub use mls::{MlsKind, MlsMapping};
 pub use scatter::CellScatter;
 pub use subpoints::SubpointMapping;
 pub use tls::TlsMapping;
