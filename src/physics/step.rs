@@ -198,32 +198,14 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         };
 
         // 5.-8. Kinematics and stress, dispatched once on the material law.
-        let outcome = match self.material {
-            Material::Linear(law) => update_particles(
-                &self.basis,
-                &self.grid,
-                particles,
-                &fields.velocity,
-                dt,
-                law,
-            ),
-            Material::Hill(law) => update_particles(
-                &self.basis,
-                &self.grid,
-                particles,
-                &fields.velocity,
-                dt,
-                law,
-            ),
-            Material::NeoHookean(law) => update_particles(
-                &self.basis,
-                &self.grid,
-                particles,
-                &fields.velocity,
-                dt,
-                law,
-            ),
-        };
+        let outcome = update_particles_with(
+            self.material,
+            &self.basis,
+            &self.grid,
+            particles,
+            &fields.velocity,
+            dt,
+        );
         outcome.check(particles, step, time)?;
         if !mass_error.is_finite() {
             return Err(Error::NonFinite {
@@ -336,11 +318,12 @@ fn update_particle_velocities<B: Basis>(
     let Particles {
         x, cell, volume, v, ..
     } = particles;
-    update_velocities(basis, x, cell, volume, v, acceleration, dt);
+    // Non-finite solid velocities are reported by `update_particles`.
+    let _ = update_velocities(basis, x, cell, volume, v, acceleration, dt);
 }
 
 /// `velocity_p += dt phi^T(x_p) a` for particles at `x` in `cell` with volumes `volume`
-/// (any phase's particle velocities).
+/// (any phase's particle velocities). Returns whether a velocity became non-finite.
 pub(crate) fn update_velocities<B: Basis>(
     basis: &B,
     x: &[f64],
@@ -349,19 +332,23 @@ pub(crate) fn update_velocities<B: Basis>(
     velocity: &mut [f64],
     acceleration: &[f64],
     dt: f64,
-) {
+) -> bool {
     velocity
         .par_chunks_mut(PARTICLES_PER_TASK)
         .enumerate()
-        .for_each(|(chunk, v)| {
+        .map(|(chunk, v)| {
             let start = chunk * PARTICLES_PER_TASK;
             let mut shape = Shape::default();
+            let mut bad = false;
             for (k, v) in v.iter_mut().enumerate() {
                 let p = start + k;
                 basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut shape);
                 *v += dt * shape.interpolate(acceleration);
+                bad |= !v.is_finite();
             }
-        });
+            bad
+        })
+        .reduce(|| false, |a, b| a || b)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -409,8 +396,24 @@ impl UpdateOutcome {
     }
 }
 
+/// [`update_particles`] with the law of `material`, dispatched once.
+pub(crate) fn update_particles_with<B: Basis>(
+    material: Material,
+    basis: &B,
+    grid: &Grid,
+    particles: &mut Particles,
+    velocity: &[f64],
+    dt: f64,
+) -> UpdateOutcome {
+    match material {
+        Material::Linear(law) => update_particles(basis, grid, particles, velocity, dt, law),
+        Material::Hill(law) => update_particles(basis, grid, particles, velocity, dt, law),
+        Material::NeoHookean(law) => update_particles(basis, grid, particles, velocity, dt, law),
+    }
+}
+
 /// Steps 5–8 and the new cell of every particle.
-pub(crate) fn update_particles<B: Basis, L: ConstitutiveLaw>(
+fn update_particles<B: Basis, L: ConstitutiveLaw>(
     basis: &B,
     grid: &Grid,
     particles: &mut Particles,

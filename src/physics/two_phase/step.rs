@@ -39,10 +39,10 @@ use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, LiquidFields, Particles};
 use crate::physics::step::{
-    at_step, copy_into, phase_momentum_error, quadrature, sync_view, update_particles,
+    at_step, copy_into, phase_momentum_error, quadrature, sync_view, update_particles_with,
     update_velocities, StepReport, TimeStepper, PARTICLES_PER_TASK,
 };
-use crate::physics::{Body, Boundary, MassSystem, Material, SolverTotals};
+use crate::physics::{Body, Boundary, MassSystem, SolverTotals};
 use rayon::prelude::*;
 
 /// Boundary conditions of each phase: the solid one carries the total-stress traction, the
@@ -337,9 +337,10 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
                 liquid: liquid_fields,
                 ..
             } = &mut *particles;
-            update_velocities(basis, x, cell, volume, v, &solid.fields.acceleration, dt);
+            // Non-finite solid velocities are reported by `update_particles` below.
+            let _ = update_velocities(basis, x, cell, volume, v, &solid.fields.acceleration, dt);
             let fields = liquid_fields.as_mut().ok_or_else(missing_liquid)?;
-            update_velocities(
+            if update_velocities(
                 basis,
                 x,
                 cell,
@@ -347,7 +348,13 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
                 &mut fields.velocity,
                 &liquid.fields.acceleration,
                 dt,
-            );
+            ) {
+                return Err(Error::NonFinite {
+                    field: "liquid velocity",
+                    step,
+                    time,
+                });
+            }
             copy_into(&mut self.liquid_bar_view.v, &fields.velocity);
         }
 
@@ -396,44 +403,15 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
         }
 
         // 7. Solid kinematics and effective stress.
-        let outcome = match self.material.skeleton {
-            Material::Linear(law) => update_particles(
-                basis,
-                &self.grid,
-                particles,
-                &solid.fields.velocity,
-                dt,
-                law,
-            ),
-            Material::Hill(law) => update_particles(
-                basis,
-                &self.grid,
-                particles,
-                &solid.fields.velocity,
-                dt,
-                law,
-            ),
-            Material::NeoHookean(law) => update_particles(
-                basis,
-                &self.grid,
-                particles,
-                &solid.fields.velocity,
-                dt,
-                law,
-            ),
-        };
+        let outcome = update_particles_with(
+            self.material.skeleton,
+            basis,
+            &self.grid,
+            particles,
+            &solid.fields.velocity,
+            dt,
+        );
         outcome.check(particles, step, time)?;
-        if particles
-            .liquid
-            .as_ref()
-            .is_some_and(|l| l.velocity.iter().any(|v| !v.is_finite()))
-        {
-            return Err(Error::NonFinite {
-                field: "liquid velocity",
-                step,
-                time,
-            });
-        }
         if outcome.crossings > 0 {
             self.bins.sort(particles, self.grid.cells);
         }
