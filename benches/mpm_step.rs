@@ -15,6 +15,10 @@
 //!   (`scenarios/consolidation.toml`, SPEC §2.1: three mapped phases, 4 particles per
 //!   cell) with `N` particles, in the parallel pool; compare with `mpm_step/parallel/N` for
 //!   the cost of the second phase.
+//! * `mms_step/{serial,parallel}/{method}/N`: one step of the manufactured-solution bar
+//!   (`scenarios/mms_bar.toml`, SPEC §6.5: neo-Hookean, per-particle body force, 3
+//!   particles per cell) with `N` particles, for plain MPM, CPDI, TLS and IMLS with the
+//!   gradient and the adjoint strain (`method.strain`): the cost of the IMLS step.
 //! * `memory_bandwidth/triad_{serial,parallel}`: `a[i] = b[i] + s c[i]` over three arrays
 //!   of 2^24 `f64` (384 MiB), counted as `3 * 8` bytes per element (STREAM convention: no
 //!   write-allocate traffic).
@@ -27,7 +31,7 @@ use std::hint::black_box;
 use std::time::Duration;
 use tlsmpm::app::build::build_simulation;
 use tlsmpm::physics::{Body, Simulation};
-use tlsmpm::problems::Problem;
+use tlsmpm::problems::{Problem, ProblemBody};
 
 const SCENARIO: &str = include_str!("../scenarios/vibrating_bar.toml");
 const PER_CELL: usize = 12;
@@ -78,6 +82,17 @@ impl Bar {
             .unwrap_or_else(|e| panic!("step {step} failed: {e}"));
         self.sim.steps_done = step;
         report
+    }
+}
+
+impl Bar {
+    /// One time step with the problem's body force (per particle where it varies in space).
+    fn step_with_problem_body(&mut self) -> usize {
+        let body = ProblemBody(self.problem.as_ref());
+        self.sim
+            .run(1, &body, &mut |_| Ok(()))
+            .unwrap_or_else(|e| panic!("step {} failed: {e}", self.sim.steps_done + 1));
+        self.sim.steps_done
     }
 }
 
@@ -151,6 +166,51 @@ fn two_phase_step(c: &mut Criterion) {
     group.finish();
 }
 
+const MMS_BAR: &str = include_str!("../scenarios/mms_bar.toml");
+
+fn mms_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("mms_step");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    let pools = [("serial", pool(1)), ("parallel", pool(parallel_threads()))];
+    let methods: [(&str, &[&str]); 5] = [
+        ("mpm", &[]),
+        ("cpdi", &["method.basis=\"cpdi\""]),
+        ("mpm_tls", &["method.reconstruction=\"tls\""]),
+        (
+            "imls_gradient",
+            &[
+                "method.reconstruction=\"imls\"",
+                "method.strain=\"gradient\"",
+            ],
+        ),
+        (
+            "imls_adjoint",
+            &[
+                "method.reconstruction=\"imls\"",
+                "method.strain=\"adjoint\"",
+            ],
+        ),
+    ];
+    for n in [30_000, 300_000] {
+        group.throughput(Throughput::Elements(n as u64));
+        for (pool_name, pool) in &pools {
+            for (name, sets) in methods {
+                let mut overrides = vec![format!("grid.cells={}", n / 3), "time.dt=1e-8".into()];
+                overrides.extend(sets.iter().map(|s| s.to_string()));
+                let mut bar = pool.install(|| Bar::from_scenario(MMS_BAR, &overrides));
+                let id = BenchmarkId::new(format!("{pool_name}/{name}"), n);
+                group.bench_function(id, |b| {
+                    pool.install(|| b.iter(|| black_box(bar.step_with_problem_body())));
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
 const TRIAD_LEN: usize = 1 << 24;
 const TRIAD_CHUNK: usize = 1 << 16;
 
@@ -203,5 +263,11 @@ fn memory_bandwidth(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, mpm_step, two_phase_step, memory_bandwidth);
+criterion_group!(
+    benches,
+    mpm_step,
+    two_phase_step,
+    mms_step,
+    memory_bandwidth
+);
 criterion_main!(benches);

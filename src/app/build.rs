@@ -5,7 +5,7 @@
 //! `method.subpoints`.
 
 use crate::app::solvers::{build_solver, SolverGeometry};
-use crate::config::{BasisKind, MassKind, MaterialModel, ReconstructionKind, Scenario};
+use crate::config::{BasisKind, MassKind, MaterialModel, ReconstructionKind, Scenario, StrainKind};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::assembly::SplineSpace;
@@ -100,6 +100,7 @@ pub fn build_simulation(
         }
         ReconstructionKind::Mls | ReconstructionKind::Imls => {
             // SPEC §4.3: the Gauss points of TLS, fits centred at each point.
+            let two_phase = parts.two_phase.is_some();
             let kind = if method.reconstruction == ReconstructionKind::Mls {
                 MlsKind::Mls
             } else {
@@ -110,7 +111,8 @@ pub fn build_simulation(
                 .ok_or_else(|| {
                     Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                 })?
-                .with_consistent_velocity(method.mass == MassKind::Consistent);
+                .with_consistent_velocity(method.mass == MassKind::Consistent)
+                .with_adjoint_strain(method.strain(two_phase) == StrainKind::Adjoint);
             with_basis(scenario, parts, mapping, &mut particles)?
         }
     };

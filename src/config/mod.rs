@@ -105,6 +105,35 @@ end = 1.9e-6
     }
 
     #[test]
+    fn the_adjoint_strain_needs_mls_or_imls_and_one_phase() {
+        let with = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            from_str(BAR, "bar", &sets).and_then(|s| s.validate().map(|()| s))
+        };
+        for reconstruction in ["mls", "imls"] {
+            let set = format!("method.reconstruction={reconstruction}");
+            let scenario = with(&[&set]).unwrap();
+            assert_eq!(scenario.method.strain(false), StrainKind::Adjoint);
+            assert_eq!(scenario.method.strain(true), StrainKind::Gradient);
+            let scenario = with(&[&set, "method.strain=gradient"]).unwrap();
+            assert_eq!(scenario.method.strain(false), StrainKind::Gradient);
+        }
+        assert_eq!(
+            with(&[]).unwrap().method.strain(false),
+            StrainKind::Gradient
+        );
+        for sets in [
+            &["method.strain=adjoint"][..],
+            &["method.strain=adjoint", "method.reconstruction=tls"],
+            &["method.strain=sideways"],
+        ] {
+            let err = with(sets).unwrap_err();
+            assert!(err.to_string().contains("method.strain"), "{sets:?}: {err}");
+            assert!(err.is_input_error());
+        }
+    }
+
+    #[test]
     fn subpoints_need_the_direct_mapping() {
         let with = |sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

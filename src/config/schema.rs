@@ -296,6 +296,9 @@ pub struct MethodConfig {
     /// [`MethodConfig::node_integrals`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node_integrals: Option<NodeIntegrals>,
+    /// The particle strain increments of MLS / IMLS. Default: see [`MethodConfig::strain`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strain: Option<StrainKind>,
 }
 
 /// `method.cell_totals`: how the conserved totals `c_e` (mass, momentum) of the
@@ -311,6 +314,30 @@ pub enum CellTotals {
     /// particles per cell stable. The default.
     #[default]
     Domains,
+}
+
+/// `method.strain`: how the particle strain increments are computed from the grid
+/// velocities.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StrainKind {
+    /// The basis gradient at the particle, `deps_p = dt sum_i dphi_i(x_p) v_i` (standard
+    /// MPM; the IMLS paper's eq. 37).
+    Gradient,
+    /// MLS / IMLS only: the strain work-conjugate to the internal force of the fitted
+    /// stress, the fit-weighted mean of the Gauss-point velocity gradients (see
+    /// `mapping::mls::adjoint`). Neutrally stable where `gradient` has a growing mode.
+    Adjoint,
+}
+
+impl StrainKind {
+    /// The key value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Gradient => "gradient",
+            Self::Adjoint => "adjoint",
+        }
+    }
 }
 
 /// `method.node_integrals`: the quadrature of the DDMPM node integrals (SPEC §3.2).
@@ -358,11 +385,21 @@ impl Default for MethodConfig {
             cell_totals: CellTotals::default(),
             gauss_points: 0,
             degenerate_cells: DegenerateRemedy::default(),
+            strain: None,
         }
     }
 }
 
 impl MethodConfig {
+    /// `method.strain` if given, else `adjoint` for one-phase MLS / IMLS and `gradient`
+    /// otherwise (the two-phase step supports `gradient` only).
+    pub fn strain(&self, two_phase: bool) -> StrainKind {
+        self.strain.unwrap_or(match self.reconstruction {
+            ReconstructionKind::Mls | ReconstructionKind::Imls if !two_phase => StrainKind::Adjoint,
+            _ => StrainKind::Gradient,
+        })
+    }
+
     /// `method.node_integrals` if given, else particle quadrature for the direct mapping
     /// (sub-point quadrature with sub-points) and exact domain integrals for reconstructions (which replace particle quadrature
     /// by Gauss quadrature everywhere; this reproduces the published DDMPM-TLS error).

@@ -137,6 +137,21 @@ impl Scenario {
                 "the two-phase step is MUSL only (SPEC §2.1)",
             ));
         }
+        if self.method.strain == Some(StrainKind::Adjoint) {
+            let reason = if two_phase {
+                Some("the two-phase step supports method.strain = \"gradient\" only")
+            } else if !matches!(
+                self.method.reconstruction,
+                ReconstructionKind::Mls | ReconstructionKind::Imls
+            ) {
+                Some("the adjoint strain needs method.reconstruction = \"mls\" or \"imls\"")
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                return Err(Error::invalid("method.strain", "\"adjoint\"", reason));
+            }
+        }
         // DDMPM sub-points (SPEC §3.3) replace the particle quadrature of the direct
         // mapping; they do not combine with a reconstruction. Any basis accepts them (the
         // published comparison pairs them with `ddmpm`).

@@ -41,6 +41,12 @@
 //!   `(rho v)_p = rho_p v_p` is reconstructed at the Gauss points with the quadratic fit and
 //!   integrated by [`integrate_momentum`], `p_i = int (rho v)_hat phi_i`.
 //!
+//! **Strain** ([`Mapping::strain_increments`]): with [`MlsMapping::with_adjoint_strain`]
+//! (`method.strain = "adjoint"`, the default for one-phase MLS / IMLS) the particle strain
+//! increments are the adjoint of the internal force, the fit-weighted mean of the
+//! Gauss-point velocity gradients ([`adjoint`]); otherwise the basis gradient at the
+//! particle (the paper's eq. 37), whose semi-discrete step has a growing mode.
+//!
 //! `map_momentum` reads only `x`, `v` and `density` of the particles it is given (the step
 //! also passes a view whose `v` holds a per-particle body force). Remedies are counted per
 //! point fit. Every point is fitted independently in parallel (no allocation per point;
@@ -301,6 +307,14 @@ pub struct MlsMapping {
     nodal: Vec<f64>,
     /// Whether the velocity solve uses the consistent mass (then `p = M^C v`).
     consistent_velocity: bool,
+    /// Whether the particle strains are the adjoint of the internal force
+    /// ([`MlsMapping::with_adjoint_strain`]).
+    adjoint_strain: bool,
+    /// The stress fit at every Gauss point as a functional of the particle data, `[cell][g]`:
+    /// `sigma_hat(x_g) = sum_p w_p (l_0 + l_1 s_p + l_2 s_p^2) sigma_p` (see [`functional`]).
+    functional: Vec<[f64; 3]>,
+    /// `[x_g, w_g, w_g dv(x_g)]` at every Gauss point, `[cell][g]` (adjoint strain).
+    gauss_gradient: Vec<[f64; 3]>,
 }
 
 impl MlsMapping {
@@ -320,6 +334,9 @@ impl MlsMapping {
             consistent: None,
             nodal: Vec::new(),
             consistent_velocity: false,
+            adjoint_strain: false,
+            functional: Vec::new(),
+            gauss_gradient: Vec::new(),
         })
     }
 
@@ -330,28 +347,40 @@ impl MlsMapping {
         self
     }
 
+    /// Particle strains conjugate to the internal force (`method.strain = "adjoint"`, see
+    /// [`adjoint`]) instead of the velocity gradient at the particle (the paper's eq. 37).
+    pub fn with_adjoint_strain(mut self, adjoint: bool) -> Self {
+        self.adjoint_strain = adjoint;
+        self
+    }
+
     /// The active part of each cell used by the last mapping.
     pub fn domains(&self) -> &CellDomains {
         &self.domains
     }
 
-    /// Fit `value` (2 fields) at every Gauss point of every active cell into `self.values`.
+    /// Fit `value` (2 fields) at every Gauss point of every active cell into `self.values`;
+    /// with `record`, also the fit functional of every point into `self.functional`.
     fn fit_gauss_points(
         &mut self,
         bins: &CellBins,
         x: &[f64],
         value: impl Fn(usize) -> [f64; 2] + Sync,
+        record: bool,
     ) {
         let (kind, inv_h, ng) = (self.kind, self.grid.inv_h, self.points.rule.len);
         let (domains, points) = (&self.domains, &self.points);
         self.values.clear();
         self.values.resize(self.grid.cells * ng, [0.0; 2]);
+        // Sized (and kept) even when not recorded: the zip below needs one chunk per cell.
+        self.functional.resize(self.grid.cells * ng, [0.0; 3]);
         let counts = self
             .values
             .par_chunks_mut(ng)
+            .zip(self.functional.par_chunks_mut(ng))
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .map(|(cell, out)| {
+            .map(|(cell, (out, functionals))| {
                 let mut counts = RemedyCounts::default();
                 if !domains.is_active(cell) {
                     return counts;
@@ -362,6 +391,9 @@ impl MlsMapping {
                 points.for_each(domains.lo[cell], domains.hi[cell], |xg, _| {
                     let m = Moments::<2>::gather(xg, inv_h, range.clone(), x, &value);
                     out[g] = m.fit(kind, 2, &mut counts);
+                    if record {
+                        functionals[g] = functional(kind, &m.mu);
+                    }
                     g += 1;
                 });
                 counts
@@ -412,7 +444,12 @@ impl Mapping for MlsMapping {
     ) {
         self.domains.update(&self.grid, particles, bins, true);
         let (stress, density) = (&particles.stress, &particles.density);
-        self.fit_gauss_points(bins, &particles.x, |p| [stress[p], density[p]]);
+        self.fit_gauss_points(
+            bins,
+            &particles.x,
+            |p| [stress[p], density[p]],
+            self.adjoint_strain,
+        );
         let (values, domains, points) = (&self.values, &self.domains, &self.points);
         integrate_mass_and_force(
             &mut self.scatter,
@@ -441,7 +478,7 @@ impl Mapping for MlsMapping {
     ) {
         let (x, v, density) = (&particles.x, &particles.v, &particles.density);
         if basis.name() != "linear" {
-            self.fit_gauss_points(bins, x, |p| [density[p] * v[p], 0.0]);
+            self.fit_gauss_points(bins, x, |p| [density[p] * v[p], 0.0], false);
             let (values, domains, points) = (&self.values, &self.domains, &self.points);
             integrate_momentum(
                 &mut self.scatter,
@@ -489,10 +526,38 @@ impl Mapping for MlsMapping {
         }
     }
 
+    fn strain_increments<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        velocity: &[f64],
+        dt: f64,
+        deps: &mut Vec<f64>,
+    ) -> bool {
+        if !self.adjoint_strain {
+            return false;
+        }
+        self.adjoint_strain_increments(basis, particles, velocity, dt, deps);
+        true
+    }
+
     fn remedies(&self) -> RemedyCounts {
         self.remedies
     }
 }
 
+/// The fit at a point as a functional of the data: the value is linear in
+/// `b_k = sum_p w_p s_p^k f_p`, `value = l_0 b_0 + l_1 b_1 + l_2 b_2`, so every particle
+/// enters with the weight `w_p (l_0 + l_1 s_p + l_2 s_p^2)`. Found by fitting the unit
+/// right-hand sides (same degree decisions as the fit itself, which depend on `mu` only).
+fn functional(kind: MlsKind, mu: &[f64; 5]) -> [f64; 3] {
+    let unit = Moments::<3> {
+        mu: *mu,
+        rhs: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    };
+    unit.fit(kind, 2, &mut RemedyCounts::default())
+}
+
+pub mod adjoint;
 #[cfg(test)]
 mod tests;

@@ -77,6 +77,9 @@ pub struct RemedyCounts {
     pub order_reduced_fits: u64,
     /// Density fits scaled towards the cell mean to stay non-negative at the Gauss points.
     pub density_limited_fits: u64,
+    /// Particles whose adjoint strain (MLS / IMLS, `method.strain = "adjoint"`) had too
+    /// small a fit volume and used the basis gradient instead.
+    pub strain_fallbacks: u64,
 }
 
 impl std::ops::AddAssign for RemedyCounts {
@@ -85,6 +88,7 @@ impl std::ops::AddAssign for RemedyCounts {
         self.virtual_point_fits += other.virtual_point_fits;
         self.order_reduced_fits += other.order_reduced_fits;
         self.density_limited_fits += other.density_limited_fits;
+        self.strain_fallbacks += other.strain_fallbacks;
     }
 }
 
@@ -113,6 +117,23 @@ pub trait Mapping: Send {
         bins: &CellBins,
         grid: &mut GridFields,
     );
+
+    /// Particle strain increments `deps_p` from the grid velocities `velocity` over `dt`,
+    /// for a mapping that defines the strain conjugate to its own internal force (the
+    /// adjoint strain of [`MlsMapping`]). Called after [`Mapping::map_momentum`] in the
+    /// same step (same positions). Returns `false`, leaving `deps` alone, when the basis
+    /// gradient at the particle, `deps_p = dt sum_i dphi_i(x_p) v_i`, is to be used (the
+    /// default).
+    fn strain_increments<B: Basis>(
+        &mut self,
+        _basis: &B,
+        _particles: &Particles,
+        _velocity: &[f64],
+        _dt: f64,
+        _deps: &mut Vec<f64>,
+    ) -> bool {
+        false
+    }
 
     /// Remedies applied since the mapping was created (none for direct quadrature).
     fn remedies(&self) -> RemedyCounts {

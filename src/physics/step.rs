@@ -67,6 +67,9 @@ pub struct Stepper<B: Basis, M: Mapping> {
     /// vectors (allocated on first use).
     body_view: Particles,
     body_fields: Option<GridFields>,
+    /// Particle strain increments of a mapping that defines its own
+    /// ([`Mapping::strain_increments`]).
+    strain: Vec<f64>,
 }
 
 impl<B: Basis, M: Mapping> Stepper<B, M> {
@@ -109,6 +112,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             total_mass,
             body_view: Particles::default(),
             body_fields: None,
+            strain: Vec::new(),
         }
     }
 
@@ -198,12 +202,20 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         };
 
         // 5.-8. Kinematics and stress, dispatched once on the material law.
+        let own_strain = self.mapping.strain_increments(
+            &self.basis,
+            particles,
+            &fields.velocity,
+            dt,
+            &mut self.strain,
+        );
         let outcome = update_particles_with(
             self.material,
             &self.basis,
             &self.grid,
             particles,
             &fields.velocity,
+            own_strain.then_some(self.strain.as_slice()),
             dt,
         );
         outcome.check(particles, step, time)?;
@@ -403,21 +415,28 @@ pub(crate) fn update_particles_with<B: Basis>(
     grid: &Grid,
     particles: &mut Particles,
     velocity: &[f64],
+    strain: Option<&[f64]>,
     dt: f64,
 ) -> UpdateOutcome {
     match material {
-        Material::Linear(law) => update_particles(basis, grid, particles, velocity, dt, law),
-        Material::Hill(law) => update_particles(basis, grid, particles, velocity, dt, law),
-        Material::NeoHookean(law) => update_particles(basis, grid, particles, velocity, dt, law),
+        Material::Linear(law) => {
+            update_particles(basis, grid, particles, velocity, strain, dt, law)
+        }
+        Material::Hill(law) => update_particles(basis, grid, particles, velocity, strain, dt, law),
+        Material::NeoHookean(law) => {
+            update_particles(basis, grid, particles, velocity, strain, dt, law)
+        }
     }
 }
 
-/// Steps 5–8 and the new cell of every particle.
+/// Steps 5–8 and the new cell of every particle. The strain increments are
+/// `dt dphi^T(x_p) v`, or `strain` when the mapping defines its own.
 fn update_particles<B: Basis, L: ConstitutiveLaw>(
     basis: &B,
     grid: &Grid,
     particles: &mut Particles,
     velocity: &[f64],
+    strain: Option<&[f64]>,
     dt: f64,
     law: L,
 ) -> UpdateOutcome {
@@ -444,7 +463,10 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
             for k in 0..x.len() {
                 basis.eval_particle(cell[k], x[k], 0.5 * volume[k], &mut shape);
                 let du = dt * shape.interpolate(velocity);
-                let deps = dt * shape.gradient(velocity);
+                let deps = match strain {
+                    Some(strain) => strain[start + k],
+                    None => dt * shape.gradient(velocity),
+                };
                 u[k] += du;
                 x[k] += du;
                 f[k] *= 1.0 + deps;

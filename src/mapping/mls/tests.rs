@@ -228,3 +228,128 @@ fn consistent_mass_momentum_is_the_matrix_times_the_nodal_velocity() {
         assert!((v - (1.0 - 2.0 * i as f64 * grid.h)).abs() < 1e-12);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+    /// The adjoint strain is exact for a uniform velocity gradient (every particle,
+    /// boundary cells included), for MLS and IMLS, linear and quadratic B-spline bases.
+    #[test]
+    fn adjoint_strain_reproduces_a_uniform_gradient(cells in 3usize..9,
+                                                   per_cell in prop::collection::vec(2usize..6, 8),
+                                                   jitter in prop::collection::vec(0.0f64..1.0, 48),
+                                                   slope in -3.0f64..3.0) {
+        let grid = Grid::new(2.0, cells);
+        let counts = &per_cell[..cells];
+        let f = |x: f64| 2.0 + 0.3 * x;
+        let (particles, bins) = layout(&grid, counts, &jitter, f, f);
+        let dt = 1e-3;
+        for kind in [MlsKind::Mls, MlsKind::Imls] {
+            for order in [1, 2] {
+                let basis = BSplineBasis::new(grid, order).unwrap();
+                let mut mapping = MlsMapping::new(grid, 3, kind).unwrap().with_adjoint_strain(true);
+                let deps = adjoint_deps(&mut mapping, &basis, order, &particles, &bins, slope, dt);
+                for (p, d) in deps.iter().enumerate() {
+                    prop_assert!((d - dt * slope).abs() <= 1e-12 * (1.0 + slope.abs()),
+                                 "{kind:?} particle {p}: {d} vs {}", dt * slope);
+                }
+                prop_assert_eq!(mapping.remedies().strain_fallbacks, 0);
+            }
+        }
+    }
+}
+
+/// Adjoint strain increments for the grid velocity `v(x) = 1 + slope x` in the
+/// B-spline basis of order `order` (open uniform knots): the DOFs of a linear field are
+/// its values at the Greville abscissae `(t_{i+1} + ... + t_{i+p}) / p`.
+fn adjoint_deps<B: Basis>(
+    mapping: &mut MlsMapping,
+    basis: &B,
+    order: usize,
+    particles: &Particles,
+    bins: &CellBins,
+    slope: f64,
+    dt: f64,
+) -> Vec<f64> {
+    map(mapping, basis, particles, bins, false);
+    let grid = mapping.grid;
+    let knot = |j: usize| (j as f64 - order as f64).clamp(0.0, grid.cells as f64);
+    let velocity: Vec<f64> = (0..basis.num_dofs())
+        .map(|i| {
+            let greville = (1..=order).map(|k| knot(i + k)).sum::<f64>() / order as f64;
+            1.0 + slope * (grid.origin + greville * grid.h)
+        })
+        .collect();
+    let mut deps = Vec::new();
+    assert!(mapping.strain_increments(basis, particles, &velocity, dt, &mut deps));
+    deps
+}
+
+#[test]
+fn adjoint_strain_is_work_conjugate_to_the_internal_force() {
+    // With a unit stress at particle q only, the internal force's work on any grid
+    // velocity v is f_int . v = sum_g psi_q(x_g) w_g dv(x_g) = V~_q deps_q(v) / dt.
+    // V~_q from a uniform gradient (deps = dt c): deps_q(v) = dt c (f.v) / (f.v_1).
+    let grid = Grid::new(3.0, 12);
+    let counts: Vec<usize> = (0..12).map(|e| 2 + (e * 5) % 3).collect();
+    let jitter: Vec<f64> = (0..40).map(|k| ((k * 29) % 41) as f64 / 41.0).collect();
+    let (mut particles, bins) = layout(&grid, &counts, &jitter, |_| 1.0, |_| 0.0);
+    let basis = LinearBasis::new(grid);
+    let dofs = basis.num_dofs();
+    let v1: Vec<f64> = (0..dofs).map(|i| 0.5 + 2.0 * i as f64 * grid.h).collect();
+    let v2: Vec<f64> = (0..dofs).map(|i| (1.7 * i as f64).sin()).collect();
+    let dt = 1e-2;
+    for q in [0, 7, 19, particles.len() - 1] {
+        particles.stress.iter_mut().for_each(|s| *s = 0.0);
+        particles.stress[q] = 1.0;
+        let mut mapping = MlsMapping::new(grid, 3, MlsKind::Imls)
+            .unwrap()
+            .with_adjoint_strain(true);
+        let fields = map(&mut mapping, &basis, &particles, &bins, false);
+        let work = |v: &[f64]| -> f64 {
+            fields
+                .internal_force
+                .iter()
+                .zip(v)
+                .map(|(f, v)| f * v)
+                .sum()
+        };
+        let mut deps = Vec::new();
+        assert!(mapping.strain_increments(&basis, &particles, &v2, dt, &mut deps));
+        let expected = dt * 2.0 * work(&v2) / work(&v1);
+        assert!(
+            (deps[q] - expected).abs() < 1e-12 * expected.abs().max(1e-3),
+            "particle {q}: {} vs {expected}",
+            deps[q]
+        );
+    }
+}
+
+#[test]
+fn adjoint_strain_does_not_depend_on_the_thread_count() {
+    let grid = Grid::new(2.0, 301);
+    let counts: Vec<usize> = (0..grid.cells).map(|e| 1 + (e * 7) % 5).collect();
+    let jitter: Vec<f64> = (0..97).map(|k| ((k * 37) % 97) as f64 / 97.0).collect();
+    let (particles, bins) = layout(&grid, &counts, &jitter, |x| 1.0 + x * x, |x| x.cos());
+    let basis = LinearBasis::new(grid);
+    let velocity: Vec<f64> = (0..basis.num_dofs())
+        .map(|i| (0.3 * i as f64).sin())
+        .collect();
+    let deps_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut mapping = MlsMapping::new(grid, 3, MlsKind::Imls)
+                .unwrap()
+                .with_adjoint_strain(true);
+            map(&mut mapping, &basis, &particles, &bins, false);
+            let mut deps = Vec::new();
+            mapping.strain_increments(&basis, &particles, &velocity, 1e-3, &mut deps);
+            deps
+        })
+    };
+    let serial = deps_on(1);
+    assert!(serial.iter().all(|d| d.is_finite()));
+    assert_eq!(serial, deps_on(3));
+}

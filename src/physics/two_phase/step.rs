@@ -409,6 +409,7 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
             &self.grid,
             particles,
             &solid.fields.velocity,
+            None,
             dt,
         );
         outcome.check(particles, step, time)?;
