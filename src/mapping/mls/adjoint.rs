@@ -3,7 +3,7 @@
 //!
 //! The internal force integrates the fitted stress at the Gauss points,
 //! `f_i = sum_g dphi_i(x_g) sigma_hat(x_g) w_g` with `sigma_hat(x_g) = sum_p psi_p(x_g)
-//! sigma_p` linear in the particle stresses ([`super::functional`]). Its work on the grid
+//! sigma_p` linear in the particle stresses (the fit functional of `mls.rs`). Its work on the grid
 //! velocities is `sum_p sigma_p sum_g psi_p(x_g) w_g dv(x_g)`, so the strain rate that is
 //! work-conjugate to `sigma_p` is
 //!
