@@ -114,8 +114,17 @@ fn sparse_supports_are_rank_adaptive_for_imls_and_degenerate_for_mls() {
     let f = |x: f64| 1.0 + 0.25 * x;
     let (particles, bins) = layout(&grid, &[1, 0, 0, 0, 0, 2, 0, 0, 0, 0], &[0.4, 0.7], f, f);
     let basis = LinearBasis::new(grid);
-    let mut imls = MlsMapping::new(grid, 3, MlsKind::Imls).unwrap();
+    let mut imls = MlsMapping::new(grid, 3, MlsKind::Imls)
+        .unwrap()
+        .with_adjoint_strain(true);
     let fields = map(&mut imls, &basis, &particles, &bins, false);
+    // The adjoint strain of the sparse layout is finite (exact for a uniform gradient).
+    let velocity: Vec<f64> = (0..basis.num_dofs()).map(|i| 2.0 * i as f64).collect();
+    let mut deps = Vec::new();
+    assert!(imls.strain_increments(&basis, &particles, &velocity, 0.5, &mut deps));
+    for d in &deps {
+        assert!((d - 0.5 * 2.0 * grid.inv_h).abs() < 1e-12, "{deps:?}");
+    }
     let values = gauss_values(&imls);
     assert!(!values.is_empty());
     for &(x, [s, r]) in &values {
