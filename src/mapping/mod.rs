@@ -15,6 +15,8 @@ pub mod mls;
 pub mod points;
 pub mod quadrature;
 pub mod scatter;
+#[cfg(test)]
+pub(crate) mod spectrum;
 pub mod subpoints;
 pub mod tls;
 

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::grid::{BSplineBasis, LinearBasis};
+use crate::mapping::spectrum::frozen_spectrum_of;
 use proptest::prelude::*;
 
 /// `counts[e]` particles in cell `e` at jittered positions, field values from `f`
@@ -363,95 +364,13 @@ fn adjoint_strain_does_not_depend_on_the_thread_count() {
     assert_eq!(serial, deps_on(3));
 }
 
-/// Largest real part of the eigenvalues of the frozen semi-discrete step
-/// `d/dt (v_p, sigma_p) = (P sigma, Q v)` of the IMLS mapping on the linear basis, for a
-/// bar with both ends fixed, `rho = E = L = 1` (so `c / L = 1`), particles at the MMS
-/// bar's deformed positions `x = X + A sin(2 pi X) s`, 3 per cell. Columns by probing the
-/// mapping with unit stresses (`P`: the particle accelerations `phi^T M^{-1} (-f_int)`) and
-/// unit velocities (`Q`: the strain rates of the fitted nodal velocity). Also returns the
-/// largest magnitude.
+/// [`frozen_spectrum_of`] the IMLS mapping, 3 particles per cell.
 fn frozen_spectrum(cells: usize, amplitude: f64, phase: f64, adjoint: bool) -> (f64, f64) {
-    use nalgebra::DMatrix;
     let grid = Grid::new(1.0, cells);
-    let n = 3 * cells;
-    let mut p = Particles::default();
-    for k in 0..n {
-        let x0 = (k as f64 + 0.5) / n as f64;
-        let two_pi = 2.0 * std::f64::consts::PI;
-        let x = x0 + amplitude * (two_pi * x0).sin() * phase.sin();
-        let stretch = 1.0 + amplitude * two_pi * (two_pi * x0).cos() * phase.sin();
-        let volume = stretch / n as f64;
-        p.id.push(k);
-        p.x0.push(x0);
-        p.x.push(x);
-        p.u.push(x - x0);
-        p.v.push(0.0);
-        p.stress.push(0.0);
-        p.volume.push(volume);
-        p.mass.push(1.0 / n as f64);
-        p.density.push(1.0 / (n as f64 * volume));
-        p.deformation_gradient.push(stretch);
-        p.cell.push(grid.cell_of(x).unwrap());
-    }
-    let mut bins = CellBins::default();
-    bins.sort(&mut p, grid.cells);
-    let basis = LinearBasis::new(grid);
-    let dofs = basis.num_dofs();
-    let free = |i: usize| i > 0 && i + 1 < dofs;
-    let mut mapping = MlsMapping::new(grid, 3, MlsKind::Imls)
+    let mapping = MlsMapping::new(grid, 3, MlsKind::Imls)
         .unwrap()
         .with_adjoint_strain(adjoint);
-    let mut fields = GridFields::new(dofs);
-    let mut shape = crate::grid::Shape::default();
-    let mut jacobian = DMatrix::<f64>::zeros(2 * n, 2 * n);
-    for q in 0..n {
-        // Column q of P: unit stress at particle q.
-        p.stress.iter_mut().for_each(|s| *s = 0.0);
-        p.stress[q] = 1.0;
-        mapping.map_mass_and_internal_force(&basis, &p, &bins, &mut fields);
-        let a: Vec<f64> = (0..dofs)
-            .map(|i| {
-                if free(i) {
-                    -fields.internal_force[i] / fields.mass[i]
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        for k in 0..n {
-            basis.eval_particle(p.cell[k], p.x[k], 0.5 * p.volume[k], &mut shape);
-            jacobian[(k, n + q)] = shape.interpolate(&a);
-        }
-        // Column q of Q: unit velocity at particle q.
-        p.v.iter_mut().for_each(|v| *v = 0.0);
-        p.v[q] = 1.0;
-        mapping.map_momentum(&basis, &p, &bins, &mut fields);
-        let v: Vec<f64> = (0..dofs)
-            .map(|i| {
-                if free(i) {
-                    fields.momentum[i] / fields.mass[i]
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let mut deps = Vec::new();
-        if !mapping.strain_increments(&basis, &p, &v, 1.0, &mut deps) {
-            deps = (0..n)
-                .map(|k| {
-                    basis.eval_particle(p.cell[k], p.x[k], 0.5 * p.volume[k], &mut shape);
-                    shape.gradient(&v)
-                })
-                .collect();
-        }
-        for k in 0..n {
-            jacobian[(n + k, q)] = deps[k];
-        }
-    }
-    let eigenvalues = jacobian.complex_eigenvalues();
-    let growth = eigenvalues.iter().map(|l| l.re).fold(f64::MIN, f64::max);
-    let size = eigenvalues.iter().map(|l| l.norm()).fold(0.0, f64::max);
-    (growth, size)
+    frozen_spectrum_of(mapping, cells, 3, amplitude, phase)
 }
 
 #[test]
