@@ -55,7 +55,7 @@ fn every_basis_gives_the_same_bits_on_one_and_three_threads() {
 
 #[test]
 fn reconstructions_give_the_same_bits_on_one_and_three_threads() {
-    for reconstruction in ["tls", "cubic_spline"] {
+    for reconstruction in ["tls", "cubic_spline", "imls", "mls"] {
         for basis in ["linear", "ddmpm", "bspline"] {
             for mass in ["lumped", "consistent"] {
                 // 1000 cells: the consistent-mass stability limit of B-splines is below
