@@ -583,3 +583,121 @@ fn solver_study_rejects_bad_options_with_exit_code_2() {
         assert_names(error_line(&o), &needles);
     }
 }
+
+#[test]
+fn two_and_three_dimensional_bad_input_names_the_key() {
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["particles.per_cell=3"],
+            &["particles.per_cell", "3", "perfect square"],
+        ),
+        (
+            &["problem.dim=3", "particles.per_cell=4"],
+            &["particles.per_cell", "4", "perfect cube"],
+        ),
+        (
+            &["method.basis=\"ddmpm\""],
+            &["method.basis", "ddmpm", "1D only"],
+        ),
+        (
+            &["method.basis=\"cpdi\""],
+            &["method.basis", "cpdi", "1D only"],
+        ),
+        (
+            &["method.reconstruction=\"imls\""],
+            &["method.reconstruction", "imls", "1D only"],
+        ),
+        (&["material.model=\"hill\""], &["material.model", "hill"]),
+        (&["boundary.w_min=\"roller\""], &["boundary.w_min"]),
+        (
+            &["boundary.x_min=\"sticky\""],
+            &["boundary.x_min", "sticky"],
+        ),
+        (&["boundary.z_min=\"roller\""], &["boundary.z_min", "2D"]),
+        (
+            &["grid.cells=[8, 8, 8]"],
+            &["grid.cells", "3 entries", "needs 2"],
+        ),
+        (&["grid.cells=[8, 0]"], &["grid.cells", "at least 1"]),
+        (&["problem.dim=4"], &["problem.dim", "4"]),
+        (&["time.dt=\"soon\""], &["time.dt", "soon"]),
+        (&["time.dt=\"auto\"", "time.cfl=2"], &["time.cfl", "2"]),
+    ];
+    for (sets, needles) in cases {
+        expect_input_error("axis_aligned_mms", sets, &[], needles);
+    }
+    let linear = [
+        "problem.kind=\"column_compaction\"",
+        "problem.dim=2",
+        "material.model=\"linear\"",
+        "particles.per_cell=4",
+        "time.end=1e-3",
+    ];
+    for (nu, needle) in [("0.5", "[0, 0.5)"), ("-0.1", "[0, 0.5)")] {
+        let mut sets = linear.to_vec();
+        let set = format!("material.poisson_ratio={nu}");
+        sets.push(&set);
+        expect_input_error(
+            "column_compaction",
+            &sets,
+            &[],
+            &["material.poisson_ratio", nu, needle],
+        );
+    }
+    // The 2D keys in a 1D scenario.
+    expect_input_error(
+        "vibrating_bar",
+        &["material.poisson_ratio=0.3"],
+        &[],
+        &["material.poisson_ratio", "2D / 3D"],
+    );
+    expect_input_error(
+        "vibrating_bar",
+        &["boundary.x_min=\"fixed\""],
+        &[],
+        &["boundary.x_min"],
+    );
+    expect_input_error(
+        "vibrating_bar",
+        &["grid.cells=[4, 4]"],
+        &[],
+        &["grid.cells", "2 entries"],
+    );
+    expect_input_error(
+        "vibrating_bar",
+        &["time.dt=\"auto\""],
+        &[],
+        &["time.dt", "auto"],
+    );
+    expect_input_error(
+        "vibrating_bar",
+        &["problem.kind=\"axis_aligned_mms\""],
+        &[],
+        &["problem.kind", "problem.dim = 2 or 3"],
+    );
+}
+
+#[test]
+fn a_two_dimensional_run_writes_the_stable_columns() {
+    let dir = tempdir();
+    let out = dir.path().join("out");
+    let o = run(
+        "axis_aligned_mms",
+        &out,
+        &["grid.cells=4", "time.end=1e-4"],
+        &[],
+    );
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    let csv = std::fs::read_to_string(out.join("particles.csv")).expect("particles.csv");
+    let header = csv.lines().next().expect("header");
+    assert_eq!(
+        header,
+        "x0,y0,x,y,u_x,u_y,v_x,v_y,stress_xx,stress_yy,stress_zz,stress_xy,volume,density,mass,\
+         u_x_exact,u_y_exact,v_x_exact,v_y_exact,stress_xx_exact,stress_yy_exact,\
+         stress_zz_exact,stress_xy_exact"
+    );
+    assert_eq!(csv.lines().count(), 1 + 64);
+    let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary");
+    assert!(summary.contains("\"dim\": 2"), "{summary}");
+    assert!(out.join("stress.svg").exists());
+}

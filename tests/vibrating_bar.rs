@@ -178,7 +178,7 @@ fn lumped_bsmpm_is_second_order_away_from_the_boundaries() {
         };
         let errors = [
             rms(&p.u, Field::Displacement, t),
-            rms(&p.v, Field::Velocity, t - 0.5 * sc.time.dt),
+            rms(&p.v, Field::Velocity, t - 0.5 * sc.time.dt.seconds()),
             rms(&p.stress, Field::Stress, t),
         ];
         if let Some(prev) = previous {

@@ -41,7 +41,7 @@ pub fn build_simulation(
 ) -> Result<(Box<dyn Problem>, Simulation)> {
     scenario.validate()?;
     let problem = problems::build(scenario)?;
-    let grid = Grid::new(problem.length(), scenario.grid.cells);
+    let grid = Grid::new(problem.length(), scenario.grid.cells.along_x());
     let two_phase = match scenario.material.model {
         MaterialModel::TwoPhase => Some(TwoPhaseMaterial::from_config(&scenario.material)?),
         _ => {
@@ -212,7 +212,7 @@ fn stepper<B: Basis + 'static, M: Mapping + Clone + 'static>(
         parts.material,
         scenario.method.scheme,
         parts.boundary.solid,
-        scenario.time.dt,
+        scenario.time.dt.seconds(),
         MassSystem::new(
             scenario.method.acceleration_mass(),
             scenario.method.mass,
@@ -229,9 +229,9 @@ fn stepper<B: Basis + 'static, M: Mapping + Clone + 'static>(
             modulus,
         ));
     }
-    if scenario.time.dt > limit && !parts.force {
+    if scenario.time.dt.seconds() > limit && !parts.force {
         return Err(Error::UnstableTimeStep {
-            dt: scenario.time.dt,
+            dt: scenario.time.dt.seconds(),
             limit,
         });
     }
@@ -272,7 +272,7 @@ fn two_phase_stepper<B: Basis + 'static, M: Mapping + Clone + 'static>(
         mapping,
         material,
         parts.boundary,
-        scenario.time.dt,
+        scenario.time.dt.seconds(),
         method.acceleration_mass(),
         solvers,
         particles,
@@ -294,9 +294,9 @@ fn two_phase_stepper<B: Basis + 'static, M: Mapping + Clone + 'static>(
         ));
     }
     limit = limit.min(material.drag_time_step());
-    if scenario.time.dt > limit && !parts.force {
+    if scenario.time.dt.seconds() > limit && !parts.force {
         return Err(Error::UnstableTimeStep {
-            dt: scenario.time.dt,
+            dt: scenario.time.dt.seconds(),
             limit,
         });
     }

@@ -45,6 +45,12 @@ pub const BUILTIN: &[Builtin] = &[
                       at the particles, 32 cells, 3 PPC",
         toml: include_str!("../../scenarios/mms_bar.toml"),
     },
+    Builtin {
+        name: "axis_aligned_mms",
+        description: "axis-aligned manufactured solution, 2D plane strain (Wallstedt & Guilkey \
+                      2008): neo-Hookean, quadratic B-splines, 16 x 16 cells, 4 PPC",
+        toml: include_str!("../../scenarios/axis_aligned_mms.toml"),
+    },
 ];
 
 /// The built-in scenario called `name`, if any.

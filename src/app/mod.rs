@@ -12,6 +12,7 @@ pub mod run;
 pub mod solver_study;
 pub mod solvers;
 pub mod study;
+pub mod tensor_run;
 
 pub use build::build_simulation;
 pub use overlay::{overlay, OverlayOptions};

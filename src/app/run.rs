@@ -38,6 +38,9 @@ pub fn run(
     options: &RunOptions,
     progress: &mut (dyn FnMut(usize, usize) + Send),
 ) -> Result<Summary> {
+    if scenario.problem.dim != 1 {
+        return crate::app::tensor_run::run_tensor(scenario, name, options, progress);
+    }
     let pool = thread_pool(options.threads)?;
     let (problem, mut simulation) = build_simulation(scenario, options.force)?;
     std::fs::create_dir_all(&options.out_dir).map_err(|e| Error::write(&options.out_dir, e))?;
@@ -101,7 +104,7 @@ pub fn exact_columns(
     scenario: &Scenario,
 ) -> Vec<(Field, Vec<f64>)> {
     let t = simulation.time();
-    let dt = scenario.time.dt;
+    let dt = scenario.time.dt.seconds();
     problem
         .exact_fields()
         .iter()
@@ -175,10 +178,11 @@ fn write_outputs(
         failure: failure.map(|e| e.to_string()),
         failed_step: failure.map(|_| simulation.steps_done + 1),
         problem: problem.name().into(),
+        dim: None,
         basis: basis.into(),
         reconstruction: reconstruction.into(),
         n_particles: particles.len(),
-        n_cells: scenario.grid.cells,
+        n_cells: scenario.grid.cells.along_x(),
         n_steps: simulation.steps_done,
         time: simulation.time(),
         threads,

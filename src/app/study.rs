@@ -40,7 +40,7 @@ pub fn study(
     let mut rows: Vec<StudyRow> = Vec::new();
     for &n in cells {
         let mut resolved = scenario.clone();
-        resolved.grid.cells = n;
+        resolved.grid.cells = n.into();
         let run_options = RunOptions {
             out_dir: options.out_dir.join(format!("cells_{n}")),
             ..options.clone()
@@ -49,7 +49,11 @@ pub fn study(
             progress(n, step, total)
         })?;
         let errors = summary.errors.unwrap_or_default();
-        let h = crate::problems::build(&resolved)?.length() / n as f64;
+        let h = if resolved.problem.dim > 1 {
+            crate::problems::tensor::cell_size_x(&resolved)?
+        } else {
+            crate::problems::build(&resolved)?.length() / n as f64
+        };
         let mut fields = Vec::new();
         for field in Field::TWO_PHASE {
             if let (Some(&e_rms), Some(&e_l2)) = (

@@ -12,9 +12,11 @@
 mod parse;
 mod schema;
 mod validate;
+mod validate_tensor;
 
 pub use parse::{apply_override, display_float, from_str, load, require_positive};
 pub use schema::*;
+pub use validate_tensor::integer_root;
 
 #[cfg(test)]
 mod tests {

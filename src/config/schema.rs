@@ -18,6 +18,9 @@ pub struct Scenario {
     pub time: TimeConfig,
     #[serde(default)]
     pub output: OutputConfig,
+    /// Boundary conditions per grid face (2D / 3D only; DESIGN §7).
+    #[serde(default, skip_serializing_if = "BoundaryConfig::is_empty")]
+    pub boundary: BoundaryConfig,
 }
 
 /// The benchmark problems (SPEC §6).
@@ -32,6 +35,9 @@ pub enum ProblemKind {
     Consolidation,
     /// SPEC §6.5 (neo-Hookean manufactured-solution bar).
     MmsBar,
+    /// The axis-aligned manufactured solution of Wallstedt & Guilkey (2008) on the unit
+    /// square / cube (2D / 3D only).
+    AxisAlignedMms,
 }
 
 /// `[problem]`: which benchmark and its own parameters.
@@ -39,6 +45,9 @@ pub enum ProblemKind {
 #[serde(deny_unknown_fields)]
 pub struct ProblemConfig {
     pub kind: ProblemKind,
+    /// Spatial dimension: 1 (default), 2 (plane strain) or 3.
+    #[serde(default = "default_dim", skip_serializing_if = "is_one")]
+    pub dim: usize,
     /// Length (height) of the bar / column in m; default per problem.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub length: Option<f64>,
@@ -76,6 +85,14 @@ pub enum ReferenceKind {
     Exact,
     /// The updated-Lagrangian FEM solution with `problem.reference_dofs` nodes (SPEC §6.3).
     Ulfem,
+}
+
+fn default_dim() -> usize {
+    1
+}
+
+fn is_one(value: &usize) -> bool {
+    *value == 1
 }
 
 fn default_reference_dofs() -> usize {
@@ -153,6 +170,9 @@ pub struct MaterialConfig {
     /// Two-phase: the skeleton law (default linear).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skeleton: Option<SkeletonLaw>,
+    /// Linear law in 2D / 3D: Poisson's ratio `nu` in `[0, 0.5)` (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poisson_ratio: Option<f64>,
 }
 
 fn default_density() -> f64 {
@@ -178,6 +198,7 @@ impl Default for MaterialConfig {
             permeability: None,
             gravity: None,
             skeleton: None,
+            poisson_ratio: None,
         }
     }
 }
@@ -186,8 +207,146 @@ impl Default for MaterialConfig {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridConfig {
-    /// Number of cells (knot spans).
-    pub cells: usize,
+    /// Number of cells (knot spans): one count for every axis, or one per axis.
+    pub cells: Cells,
+}
+
+/// `grid.cells`: an integer (the same on every axis; for problems extruded from 1D the
+/// count along x, one cell across) or an array with one count per axis.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(untagged)]
+pub enum Cells {
+    Uniform(usize),
+    PerAxis(Vec<usize>),
+}
+
+impl Cells {
+    /// The count along x (the 1D count).
+    pub fn along_x(&self) -> usize {
+        match self {
+            Cells::Uniform(n) => *n,
+            Cells::PerAxis(counts) => counts.first().copied().unwrap_or(0),
+        }
+    }
+
+    /// Total number of cells for `dim` axes, where `Uniform(n)` means `across` cells on the
+    /// other axes when given (extruded problems) and `n` otherwise; `None` on overflow or a
+    /// mis-sized array.
+    pub fn per_axis(&self, dim: usize, across: Option<usize>) -> Option<Vec<usize>> {
+        match self {
+            Cells::Uniform(n) => Some(
+                (0..dim)
+                    .map(|a| if a == 0 { *n } else { across.unwrap_or(*n) })
+                    .collect(),
+            ),
+            Cells::PerAxis(counts) => (counts.len() == dim).then(|| counts.clone()),
+        }
+    }
+}
+
+impl PartialEq<usize> for Cells {
+    fn eq(&self, other: &usize) -> bool {
+        *self == Cells::Uniform(*other)
+    }
+}
+
+impl From<usize> for Cells {
+    fn from(n: usize) -> Self {
+        Cells::Uniform(n)
+    }
+}
+
+impl<'de> Deserialize<'de> for Cells {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = Cells;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a non-negative cell count or an array of 1 to 3 counts")
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Cells, E> {
+                usize::try_from(v)
+                    .map(Cells::Uniform)
+                    .map_err(|_| E::custom(format!("{v} cells is too many")))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Cells, E> {
+                usize::try_from(v).map(Cells::Uniform).map_err(|_| {
+                    E::invalid_value(serde::de::Unexpected::Signed(v), &"a cell count >= 0")
+                })
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Cells, A::Error> {
+                let mut counts = Vec::new();
+                while let Some(n) = seq.next_element::<usize>()? {
+                    if counts.len() == 3 {
+                        return Err(serde::de::Error::custom(
+                            "more than 3 cell counts (one per axis)",
+                        ));
+                    }
+                    counts.push(n);
+                }
+                Ok(Cells::PerAxis(counts))
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
+}
+
+/// A boundary condition of one grid face (2D / 3D).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FaceCondition {
+    /// Every velocity component zero on the face's nodes.
+    Fixed,
+    /// The normal component zero, the tangential ones free.
+    Roller,
+    /// Traction free.
+    Free,
+}
+
+/// `[boundary]`: conditions per face, the problem's defaults where absent.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryConfig {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x_min: Option<FaceCondition>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x_max: Option<FaceCondition>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y_min: Option<FaceCondition>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y_max: Option<FaceCondition>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_min: Option<FaceCondition>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_max: Option<FaceCondition>,
+}
+
+impl BoundaryConfig {
+    /// The faces in the order `[axis][min, max]` with their key names.
+    pub fn faces(&self) -> [[(&'static str, Option<FaceCondition>); 2]; 3] {
+        [
+            [
+                ("boundary.x_min", self.x_min),
+                ("boundary.x_max", self.x_max),
+            ],
+            [
+                ("boundary.y_min", self.y_min),
+                ("boundary.y_max", self.y_max),
+            ],
+            [
+                ("boundary.z_min", self.z_min),
+                ("boundary.z_max", self.z_max),
+            ],
+        ]
+    }
+
+    /// No face given.
+    pub fn is_empty(&self) -> bool {
+        self == &BoundaryConfig::default()
+    }
 }
 
 /// `[particles]`.
@@ -529,10 +688,84 @@ impl Default for SolverConfig {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TimeConfig {
-    /// Time step in s.
-    pub dt: f64,
-    /// End time in s; the run takes `round(end / dt)` steps.
+    /// Time step in s, or `"auto"` (2D / 3D): `cfl` times the stability limit of the
+    /// current particle state, recomputed every `cfl_every` steps.
+    pub dt: TimeStep,
+    /// End time in s; a fixed step takes `round(end / dt)` steps.
     pub end: f64,
+    /// CFL number of `dt = "auto"` (default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cfl: Option<f64>,
+}
+
+/// `time.dt`: a number of seconds or `"auto"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeStep {
+    Fixed(f64),
+    Auto,
+}
+
+impl TimeStep {
+    /// The fixed step in s; NaN for `"auto"` (which validation allows only where the
+    /// time loop computes the step itself).
+    pub fn seconds(self) -> f64 {
+        match self {
+            TimeStep::Fixed(dt) => dt,
+            TimeStep::Auto => f64::NAN,
+        }
+    }
+}
+
+impl From<f64> for TimeStep {
+    fn from(dt: f64) -> Self {
+        TimeStep::Fixed(dt)
+    }
+}
+
+impl PartialEq<f64> for TimeStep {
+    fn eq(&self, other: &f64) -> bool {
+        *self == TimeStep::Fixed(*other)
+    }
+}
+
+impl Serialize for TimeStep {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            TimeStep::Fixed(dt) => serializer.serialize_f64(*dt),
+            TimeStep::Auto => serializer.serialize_str("auto"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for TimeStep {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = TimeStep;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a time step in seconds or \"auto\"")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<TimeStep, E> {
+                Ok(TimeStep::Fixed(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<TimeStep, E> {
+                Ok(TimeStep::Fixed(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<TimeStep, E> {
+                Ok(TimeStep::Fixed(v as f64))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<TimeStep, E> {
+                match v {
+                    "auto" => Ok(TimeStep::Auto),
+                    other => Err(E::invalid_value(
+                        serde::de::Unexpected::Str(other),
+                        &"a number or \"auto\"",
+                    )),
+                }
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
 }
 
 /// At which time the exact velocity is evaluated for the error measures.

@@ -7,13 +7,17 @@ use crate::error::{Error, Result};
 impl Scenario {
     /// Number of time steps, `round(end / dt)`.
     pub fn n_steps(&self) -> usize {
-        (self.time.end / self.time.dt).round() as usize
+        (self.time.end / self.time.dt.seconds()).round() as usize
     }
 
     /// Range checks that do not depend on the problem; problem-specific keys are checked
     /// when the problem is built. Returns the first violation.
     pub fn validate(&self) -> Result<()> {
-        if self.grid.cells == 0 {
+        self.reject_tensor_keys()?;
+        if self.problem.dim != 1 {
+            return self.validate_tensor();
+        }
+        if self.grid.cells.along_x() == 0 {
             return Err(Error::invalid("grid.cells", 0, "must be at least 1"));
         }
         if self.particles.per_cell == 0 {
@@ -23,11 +27,15 @@ impl Scenario {
                 "must be at least 1",
             ));
         }
-        let particles = self.grid.cells.checked_mul(self.particles.per_cell);
+        let particles = self
+            .grid
+            .cells
+            .along_x()
+            .checked_mul(self.particles.per_cell);
         if particles.is_none_or(|n| n > MAX_PARTICLES) {
             return Err(Error::invalid(
                 "grid.cells",
-                self.grid.cells,
+                self.grid.cells.along_x(),
                 format!(
                     "with particles.per_cell = {} that is more than {MAX_PARTICLES:e} particles",
                     self.particles.per_cell
@@ -36,15 +44,15 @@ impl Scenario {
         }
         require_positive("material.density", self.material.density)?;
         require_positive("material.youngs_modulus", self.material.youngs_modulus)?;
-        require_positive("time.dt", self.time.dt)?;
+        require_positive("time.dt", self.time.dt.seconds())?;
         require_positive("time.end", self.time.end)?;
-        if self.time.end / self.time.dt > MAX_STEPS as f64 {
+        if self.time.end / self.time.dt.seconds() > MAX_STEPS as f64 {
             return Err(Error::invalid(
                 "time.dt",
-                display_float(self.time.dt),
+                display_float(self.time.dt.seconds()),
                 format!(
                     "time.end / time.dt = {:e} steps, more than {:e}",
-                    self.time.end / self.time.dt,
+                    self.time.end / self.time.dt.seconds(),
                     MAX_STEPS as f64
                 ),
             ));
@@ -53,7 +61,10 @@ impl Scenario {
             return Err(Error::invalid(
                 "time.end",
                 self.time.end,
-                format!("shorter than half a time step (time.dt = {})", self.time.dt),
+                format!(
+                    "shorter than half a time step (time.dt = {})",
+                    self.time.dt.seconds()
+                ),
             ));
         }
         require_positive("solver.tolerance", self.solver.tolerance)?;

@@ -12,6 +12,7 @@ pub mod ddmpm;
 mod domain;
 pub mod gimp;
 pub mod linear;
+pub mod tensor;
 
 pub use basis::{Basis, ParticleQuadrature, Shape, MAX_SUPPORT};
 pub use bspline::BSplineBasis;
@@ -19,6 +20,7 @@ pub use cpdi::CpdiBasis;
 pub use ddmpm::DdmpmBasis;
 pub use gimp::GimpBasis;
 pub use linear::LinearBasis;
+pub use tensor::{TensorBasis, TensorGrid, TensorShape};
 
 /// A uniform 1D grid of `cells` cells of size `h` starting at `origin`.
 #[derive(Clone, Copy, Debug, PartialEq)]

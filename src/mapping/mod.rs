@@ -18,6 +18,8 @@ pub mod scatter;
 #[cfg(test)]
 pub(crate) mod spectrum;
 pub mod subpoints;
+pub mod tensor_direct;
+pub mod tensor_scatter;
 pub mod tls;
 
 pub use cubic_spline::CubicSplineMapping;

@@ -4,7 +4,10 @@
 pub mod atomic;
 pub mod csv;
 pub mod plot;
+pub mod scatter;
 pub mod summary;
+pub mod tensor_csv;
+pub mod vtu;
 
 pub use atomic::write_atomic;
 pub use summary::Summary;

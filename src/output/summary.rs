@@ -50,6 +50,9 @@ pub struct Summary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub failed_step: Option<usize>,
     pub problem: String,
+    /// Spatial dimension (2D / 3D runs only; absent in 1D).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dim: Option<usize>,
     pub basis: String,
     pub reconstruction: String,
     pub n_particles: usize,

@@ -5,8 +5,10 @@
 //! cell over contiguous ranges; `id` keeps each particle's original index for output.
 
 pub mod bins;
+pub mod tensor;
 
 pub use bins::CellBins;
+pub use tensor::TensorParticles;
 
 /// Pore-liquid fields of two-phase particles (SPEC §2.1), in the storage order of the
 /// solid fields. The solid phase lives in [`Particles`] itself: `mass` is the constant

@@ -9,6 +9,7 @@ pub mod material;
 pub mod simulation;
 pub mod stability;
 pub mod step;
+pub mod tensor;
 pub mod two_phase;
 
 pub use body::{Body, BodySource};

@@ -9,10 +9,12 @@
 //! (`v0 pi u / H` ~ 4e-7 against spatial errors of 1e-10), and the column compaction stress
 //! is the weight of the material above `X_p`.
 
+pub mod axis_aligned_mms;
 pub mod column_compaction;
 pub mod consolidation;
 pub mod mms_bar;
 pub mod reference;
+pub mod tensor;
 pub mod terzaghi;
 pub mod ulfem;
 pub mod vibrating_bar;
@@ -210,7 +212,7 @@ pub fn build(scenario: &Scenario) -> Result<Box<dyn Problem>> {
                 scenario.problem.reference_dofs,
                 scenario.material.density,
                 material,
-                scenario.time.dt,
+                scenario.time.dt.seconds(),
             )?))
         }
     }
@@ -223,6 +225,13 @@ fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
         ProblemKind::ColumnCompaction => "column_compaction",
         ProblemKind::Consolidation => "consolidation",
         ProblemKind::MmsBar => "mms_bar",
+        ProblemKind::AxisAlignedMms => {
+            return Err(Error::invalid(
+                "problem.kind",
+                "\"axis_aligned_mms\"",
+                "the axis-aligned manufactured solution is 2D / 3D: set problem.dim = 2 or 3",
+            ))
+        }
     };
     // Keys of other problems would be silently ignored: reject them.
     let reject = |key: &str, value: Option<f64>| match value {
@@ -265,6 +274,7 @@ fn build_exact(scenario: &Scenario) -> Result<Box<dyn Problem>> {
             reject("problem.start_time", p.start_time)?;
             Ok(Box::new(MmsBar::from_scenario(scenario)?))
         }
+        ProblemKind::AxisAlignedMms => unreachable!("rejected above"),
     }
 }
 

@@ -1,0 +1,477 @@
+//! 2D / 3D runs (`problem.dim = 2 | 3`, `docs/dimensions.md`): scenario → monomorphised
+//! [`TensorStepper`] (dispatched once on the dimension and `method.basis`), the time loop,
+//! and the outputs of DESIGN §7: `summary.json`, `particles.csv`, `history.csv`, VTU
+//! snapshots with a `.pvd` series, and a scatter plot of the particles coloured by
+//! `stress_xx`. On a numerical failure everything computed is written before the error
+//! is returned, as in 1D.
+
+use crate::app::RunOptions;
+use crate::config::{
+    integer_root, BasisKind, MaterialModel, Scenario, TimeStep, VelocityReference,
+};
+use crate::error::{Error, Result};
+use crate::grid::{BSplineBasis, Basis, GimpBasis, Grid, LinearBasis, TensorBasis};
+use crate::mapping::tensor_direct::TensorDirectMapping;
+use crate::mapping::RemedyCounts;
+use crate::output::csv::write_history;
+use crate::output::scatter::{scatter_plot, ScatterAxes};
+use crate::output::summary::{Conservation, Errors, SolverSummary};
+use crate::output::tensor_csv::{write_tensor_particles, TensorExactColumn};
+use crate::output::vtu::{write_pvd, write_vtu, PointArray};
+use crate::output::Summary;
+use crate::particles::tensor::{stress_index, STRESS_COMPONENTS};
+use crate::particles::TensorParticles;
+use crate::physics::tensor::stability::tensor_critical_time_step;
+use crate::physics::tensor::{
+    lame, LinearElasticTensor, NeoHookeanTensor, NodeConstraints, TensorMaterial, TensorSimulation,
+    TensorStepper, TimeStepping,
+};
+use crate::problems::tensor::TensorProblem;
+use crate::problems::Field;
+use std::path::Path;
+use std::time::Instant;
+
+/// Validate `scenario` (dimension `D`), build its problem and a simulation at `t = 0`.
+/// Unless `force`, a fixed time step above the stability limit is an input error.
+pub fn build_tensor_simulation<const D: usize>(
+    scenario: &Scenario,
+    force: bool,
+) -> Result<(TensorProblem<D>, TensorSimulation<D>)> {
+    scenario.validate()?;
+    if scenario.problem.dim != D {
+        return Err(Error::invalid(
+            "problem.dim",
+            scenario.problem.dim,
+            format!("this build path is for {D}D"),
+        ));
+    }
+    let problem = TensorProblem::<D>::from_scenario(scenario)?;
+    let per_axis = integer_root(scenario.particles.per_cell, D).ok_or_else(|| {
+        Error::invalid(
+            "particles.per_cell",
+            scenario.particles.per_cell,
+            "not a perfect power of the dimension",
+        )
+    })?;
+    let m = &scenario.material;
+    let material = match m.model {
+        MaterialModel::NeoHookean => {
+            let (Some(mu), Some(lambda)) = (m.shear_modulus, m.lame_lambda) else {
+                return Err(Error::invalid(
+                    "material.shear_modulus",
+                    "(missing)",
+                    "required by material.model = \"neo_hookean\"",
+                ));
+            };
+            TensorMaterial::NeoHookean(NeoHookeanTensor { lambda, mu })
+        }
+        _ => {
+            let (lambda, mu) = lame(m.youngs_modulus, m.poisson_ratio.unwrap_or(0.0));
+            TensorMaterial::Linear(LinearElasticTensor { lambda, mu })
+        }
+    };
+    let particles = problem.initial_particles(per_axis, m.density);
+    let grid = problem.grid();
+    let parts = Parts {
+        scenario,
+        material,
+        per_axis,
+        force,
+    };
+    let simulation = match scenario.method.basis {
+        BasisKind::Linear => parts.finish(
+            TensorBasis::new(grid, LinearBasis::new),
+            false,
+            particles,
+            &problem,
+        )?,
+        BasisKind::Gimp => parts.finish(
+            TensorBasis::new(grid, GimpBasis::new),
+            true,
+            particles,
+            &problem,
+        )?,
+        BasisKind::Bspline => {
+            let order = scenario.method.order;
+            if BSplineBasis::new(Grid::new(1.0, 1), order).is_none() {
+                return Err(Error::invalid(
+                    "method.order",
+                    order,
+                    "not a supported order",
+                ));
+            }
+            let make =
+                |g: Grid| BSplineBasis::new(g, order).unwrap_or_else(|| unreachable_basis(g));
+            parts.finish(TensorBasis::new(grid, make), false, particles, &problem)?
+        }
+        other => {
+            return Err(Error::invalid(
+                "method.basis",
+                format!("{other:?}").to_lowercase(),
+                "is 1D only",
+            ))
+        }
+    };
+    Ok((problem, simulation))
+}
+
+/// Order 1 exists for every grid (only reached if a validated order were refused).
+fn unreachable_basis(g: Grid) -> BSplineBasis {
+    match BSplineBasis::new(g, 1) {
+        Some(b) => b,
+        None => unreachable!("order 1 is always supported"),
+    }
+}
+
+struct Parts<'a> {
+    scenario: &'a Scenario,
+    material: TensorMaterial,
+    per_axis: usize,
+    force: bool,
+}
+
+impl Parts<'_> {
+    fn finish<const D: usize, B: Basis + Clone + 'static>(
+        &self,
+        basis: TensorBasis<D, B>,
+        particle_domain: bool,
+        mut particles: TensorParticles<D>,
+        problem: &TensorProblem<D>,
+    ) -> Result<TensorSimulation<D>> {
+        let density = self.scenario.material.density;
+        let modulus = self.material.wave_modulus();
+        let limit = tensor_critical_time_step(&basis, [self.per_axis; D], density, modulus);
+        let stepping = match self.scenario.time.dt {
+            TimeStep::Fixed(dt) => {
+                if dt > limit && !self.force {
+                    return Err(Error::UnstableTimeStep { dt, limit });
+                }
+                TimeStepping::Fixed(dt)
+            }
+            TimeStep::Auto => TimeStepping::Auto {
+                cfl: self.scenario.time.cfl.unwrap_or(0.5),
+                initial_limit: limit,
+                initial_speed: (modulus / density).sqrt(),
+            },
+        };
+        let half_length0 = particle_domain
+            .then(|| std::array::from_fn(|a| 0.5 * basis.grid.axes[a].h / self.per_axis as f64));
+        let mapping = TensorDirectMapping::new(&basis, half_length0);
+        let constraints = NodeConstraints::new(&basis, &problem.faces);
+        let stepper = TensorStepper::new(
+            basis,
+            mapping,
+            self.material,
+            self.scenario.method.scheme,
+            constraints,
+            &mut particles,
+        );
+        Ok(TensorSimulation::new(
+            Box::new(stepper),
+            particles,
+            stepping,
+            self.scenario.time.end,
+        ))
+    }
+}
+
+/// Run a 2D / 3D `scenario` with its outputs (see the module doc). `progress(step,
+/// n_steps)` is called after every step (`n_steps` estimated for automatic steps).
+pub fn run_tensor(
+    scenario: &Scenario,
+    name: &str,
+    options: &RunOptions,
+    progress: &mut (dyn FnMut(usize, usize) + Send),
+) -> Result<Summary> {
+    match scenario.problem.dim {
+        1 => run_dim::<1>(scenario, name, options, progress),
+        2 => run_dim::<2>(scenario, name, options, progress),
+        3 => run_dim::<3>(scenario, name, options, progress),
+        dim => Err(Error::invalid("problem.dim", dim, "must be 1, 2 or 3")),
+    }
+}
+
+fn run_dim<const D: usize>(
+    scenario: &Scenario,
+    name: &str,
+    options: &RunOptions,
+    progress: &mut (dyn FnMut(usize, usize) + Send),
+) -> Result<Summary> {
+    let pool = crate::app::run::thread_pool(options.threads)?;
+    let (problem, mut simulation) =
+        pool.install(|| build_tensor_simulation::<D>(scenario, options.force))?;
+    let out = &options.out_dir;
+    std::fs::create_dir_all(out).map_err(|e| Error::write(out, e))?;
+    let snapshots = scenario.output.snapshots;
+    let vtk = scenario.output.vtk;
+    let end = scenario.time.end;
+    let mut vtk_series: Vec<(f64, String)> = Vec::new();
+    let mut snapshot_error = None;
+    let mut next_snapshot = 1;
+    let estimate = |sim: &TensorSimulation<D>| {
+        sim.fixed_steps().unwrap_or_else(|| {
+            let dt = sim.dt.max(f64::MIN_POSITIVE);
+            sim.steps_done + ((end - sim.time) / dt).ceil().max(0.0) as usize
+        })
+    };
+    if vtk {
+        let file = "particles_0000.vtu".to_string();
+        write_vtu_of(&out.join(&file), &simulation.particles)?;
+        vtk_series.push((0.0, file));
+    }
+    let clock = Instant::now();
+    let outcome = pool.install(|| {
+        simulation.run(&problem, &mut |sim| {
+            progress(sim.steps_done, estimate(sim));
+            // Snapshot k of `snapshots` once the time passes k / snapshots of the run.
+            while snapshots > 0
+                && next_snapshot <= snapshots
+                && sim.time >= end * next_snapshot as f64 / snapshots as f64 * (1.0 - 1e-12)
+            {
+                let k = next_snapshot;
+                next_snapshot += 1;
+                let result = if vtk {
+                    let file = format!("particles_{k:04}.vtu");
+                    vtk_series.push((sim.time, file.clone()));
+                    write_vtu_of(&out.join(file), &sim.particles)
+                } else {
+                    let columns = exact_columns(&problem, sim, scenario);
+                    write_tensor_particles(
+                        &out.join(format!("snapshot_{k:04}.csv")),
+                        &sim.particles,
+                        &as_refs(&columns),
+                    )
+                };
+                if let Err(e) = result {
+                    snapshot_error = Some(e);
+                }
+            }
+            Ok(true)
+        })
+    });
+    let wall_seconds = clock.elapsed().as_secs_f64();
+    if let Some(e) = snapshot_error {
+        return Err(e);
+    }
+    if vtk {
+        let final_file = format!("particles_{:04}.vtu", vtk_series.len());
+        if vtk_series.last().is_none_or(|(t, _)| *t < simulation.time) {
+            write_vtu_of(&out.join(&final_file), &simulation.particles)?;
+            vtk_series.push((simulation.time, final_file));
+        }
+        write_pvd(&out.join("particles.pvd"), &vtk_series)?;
+    }
+    let summary = pool.install(|| {
+        write_outputs(
+            scenario,
+            name,
+            &problem,
+            &simulation,
+            out,
+            pool.current_num_threads(),
+            wall_seconds,
+            outcome.as_ref().err(),
+        )
+    })?;
+    outcome.map(|()| summary)
+}
+
+/// The exact values of every known field at every particle (storage order), at the
+/// current time (velocity at `t - dt/2` with `output.velocity_reference = "half_step"`).
+pub fn exact_columns<const D: usize>(
+    problem: &TensorProblem<D>,
+    simulation: &TensorSimulation<D>,
+    scenario: &Scenario,
+) -> Vec<(Field, Vec<Vec<f64>>)> {
+    use rayon::prelude::*;
+    let p = &simulation.particles;
+    problem
+        .exact_fields()
+        .iter()
+        .map(|&field| {
+            let t = match (field, scenario.output.velocity_reference) {
+                (Field::Velocity, VelocityReference::HalfStep) if simulation.steps_done > 0 => {
+                    simulation.time - 0.5 * simulation.dt
+                }
+                _ => simulation.time,
+            };
+            let per_particle: Vec<[f64; 6]> = (0..p.len())
+                .into_par_iter()
+                .with_min_len(4096)
+                .map(|k| problem.exact(field, p.material_position(k), t))
+                .collect();
+            let components = if field == Field::Stress { 6 } else { D };
+            let values = (0..components)
+                .map(|c| per_particle.iter().map(|e| e[c]).collect())
+                .collect();
+            (field, values)
+        })
+        .collect()
+}
+
+fn as_refs(columns: &[(Field, Vec<Vec<f64>>)]) -> Vec<TensorExactColumn<'_>> {
+    columns
+        .iter()
+        .map(|(field, values)| TensorExactColumn {
+            field: *field,
+            values,
+        })
+        .collect()
+}
+
+/// The particle components of `field` (`D` vectors, or the six stress components).
+fn numerical<const D: usize>(p: &TensorParticles<D>, field: Field) -> Vec<&[f64]> {
+    match field {
+        Field::Displacement => p.u.iter().map(|c| c.as_slice()).collect(),
+        Field::Velocity => p.v.iter().map(|c| c.as_slice()).collect(),
+        _ => p.stress.iter().map(|c| c.as_slice()).collect(),
+    }
+}
+
+/// RMS over particles of the error norm and its relative L2 counterpart: Euclidean for
+/// vectors, Frobenius for the stress (off-diagonal components count twice).
+pub fn vector_errors(numerical: &[&[f64]], exact: &[Vec<f64>], stress: bool) -> (f64, f64) {
+    let n = numerical.first().map_or(0, |c| c.len());
+    let weight = |c: usize| if stress && c >= 3 { 2.0 } else { 1.0 };
+    let [error2, exact2] = crate::numerics::sum::deterministic_sums(n, |k| {
+        let mut e2 = 0.0;
+        let mut x2 = 0.0;
+        for (c, (num, ex)) in numerical.iter().zip(exact).enumerate() {
+            let d = num[k] - ex[k];
+            e2 += weight(c) * d * d;
+            x2 += weight(c) * ex[k] * ex[k];
+        }
+        [e2, x2]
+    });
+    let rms = (error2 / n.max(1) as f64).sqrt();
+    let rel = if exact2 > 0.0 {
+        (error2 / exact2).sqrt()
+    } else {
+        f64::NAN
+    };
+    (rms, rel)
+}
+
+fn write_vtu_of<const D: usize>(path: &Path, p: &TensorParticles<D>) -> Result<()> {
+    let coordinates: Vec<&[f64]> = p.x.iter().map(|c| c.as_slice()).collect();
+    fn vector<const D: usize>(field: &[Vec<f64>; D]) -> Vec<&[f64]> {
+        field.iter().map(|c| c.as_slice()).collect()
+    }
+    let stress: Vec<&[f64]> = [(0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2)]
+        .iter()
+        .map(|&(a, b)| p.stress[stress_index(a, b)].as_slice())
+        .collect();
+    let arrays = [
+        PointArray {
+            name: "displacement",
+            components: vector(&p.u),
+        },
+        PointArray {
+            name: "velocity",
+            components: vector(&p.v),
+        },
+        // ParaView's symmetric-tensor order: XX, YY, ZZ, XY, YZ, XZ.
+        PointArray {
+            name: "stress",
+            components: stress,
+        },
+        PointArray {
+            name: "volume",
+            components: vec![&p.volume],
+        },
+        PointArray {
+            name: "density",
+            components: vec![&p.density],
+        },
+        PointArray {
+            name: "mass",
+            components: vec![&p.mass],
+        },
+    ];
+    write_vtu(path, &coordinates, &arrays)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn write_outputs<const D: usize>(
+    scenario: &Scenario,
+    name: &str,
+    problem: &TensorProblem<D>,
+    simulation: &TensorSimulation<D>,
+    out: &Path,
+    threads: usize,
+    wall_seconds: f64,
+    failure: Option<&Error>,
+) -> Result<Summary> {
+    let p = &simulation.particles;
+    let columns = exact_columns(problem, simulation, scenario);
+    let errors = (!columns.is_empty()).then(|| {
+        let mut errors = Errors::default();
+        for (field, exact) in &columns {
+            let (rms, rel) = vector_errors(&numerical(p, *field), exact, *field == Field::Stress);
+            errors.rms.insert(field.name().into(), rms);
+            errors.rel_l2.insert(field.name().into(), rel);
+        }
+        errors
+    });
+    let summary = Summary {
+        scenario: name.to_string(),
+        status: if failure.is_some() {
+            "failed"
+        } else {
+            "completed"
+        }
+        .into(),
+        failure: failure.map(|e| e.to_string()),
+        failed_step: failure.map(|_| simulation.steps_done + 1),
+        problem: problem.name().into(),
+        dim: Some(D),
+        basis: simulation.stepper.basis_name().into(),
+        reconstruction: "none".into(),
+        n_particles: p.len(),
+        n_cells: problem.cells.iter().product(),
+        n_steps: simulation.steps_done,
+        time: simulation.time,
+        threads,
+        wall_seconds,
+        errors,
+        conservation: Conservation {
+            max_rel_mass_error: simulation.max_mass_error,
+            max_rel_momentum_error: simulation.max_momentum_error,
+            liquid_max_rel_mass_error: None,
+            liquid_max_rel_momentum_error: None,
+        },
+        grid_crossings: simulation.grid_crossings,
+        solver: SolverSummary {
+            kind: "lumped".into(),
+            total_iterations: 0,
+            max_iterations: 0,
+        },
+        reconstruction_remedies: RemedyCounts::default(),
+        config: scenario.clone(),
+    };
+    write_tensor_particles(&out.join("particles.csv"), p, &as_refs(&columns))?;
+    write_history(&out.join("history.csv"), &simulation.history)?;
+    if scenario.output.plots && D >= 2 {
+        let title = format!(
+            "{name}: stress_xx at t = {:.4e} s ({}, {}D{})",
+            simulation.time,
+            simulation.stepper.basis_name(),
+            D,
+            if D == 3 { ", projected on x-y" } else { "" }
+        );
+        scatter_plot(
+            &out.join("stress.svg"),
+            &ScatterAxes {
+                title: &title,
+                x_label: "x [m]",
+                y_label: "y [m]",
+                colour_label: &format!("stress_{} [Pa]", STRESS_COMPONENTS[0]),
+            },
+            &p.x[0],
+            &p.x[1.min(D - 1)],
+            &p.stress[0],
+        )?;
+    }
+    summary.write(&out.join("summary.json"))?;
+    Ok(summary)
+}

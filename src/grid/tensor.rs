@@ -1,0 +1,389 @@
+//! The dimension-generic background grid and tensor-product bases (`D` = 1, 2, 3; see
+//! `docs/dimensions.md`).
+//!
+//! [`TensorGrid`] is a uniform grid of `cells[a]` cells of size `h[a]` per axis on
+//! `[0, L_a]`, cells and nodes numbered lexicographically with x fastest:
+//! `cell = i_x + n_x (i_y + n_y i_z)`. A [`TensorBasis`] is the tensor product of one 1D
+//! [`Basis`] per axis (linear hats, B-splines of any order, GIMP), so that
+//!
+//! ```text
+//! phi_I(x) = prod_a phi^a_{I_a}(x_a),    d phi_I / d x_b = dphi^b_{I_b}(x_b) prod_{a != b} phi^a_{I_a}(x_a)
+//! ```
+//! A point evaluation fills one 1D [`Shape`] per axis ([`TensorShape`], on the stack); the
+//! products are formed on the fly by [`TensorShape::for_each_node`], so no evaluation
+//! allocates. The DOFs of axis `a` that sit on its two end faces are the 1D basis'
+//! [`Basis::boundary_dofs`].
+
+use super::{Basis, Grid, Shape};
+
+/// A uniform grid of `cells[a]` cells per axis on `[0, length[a]]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TensorGrid<const D: usize> {
+    /// The 1D grid of each axis.
+    pub axes: [Grid; D],
+}
+
+impl<const D: usize> TensorGrid<D> {
+    /// A grid of `cells[a]` equal cells on `[0, length[a]]` per axis.
+    pub fn new(length: [f64; D], cells: [usize; D]) -> Self {
+        Self {
+            axes: std::array::from_fn(|a| Grid::new(length[a], cells[a])),
+        }
+    }
+
+    /// Total number of cells.
+    pub fn num_cells(&self) -> usize {
+        self.axes.iter().map(|g| g.cells).product()
+    }
+
+    /// Cell counts per axis.
+    pub fn cells(&self) -> [usize; D] {
+        std::array::from_fn(|a| self.axes[a].cells)
+    }
+
+    /// Cell sizes per axis.
+    pub fn h(&self) -> [f64; D] {
+        std::array::from_fn(|a| self.axes[a].h)
+    }
+
+    /// The smallest cell size.
+    pub fn min_h(&self) -> f64 {
+        self.axes.iter().map(|g| g.h).fold(f64::INFINITY, f64::min)
+    }
+
+    /// Lexicographic index of the cell with axis indices `index` (x fastest).
+    #[inline]
+    pub fn cell_index(&self, index: [usize; D]) -> usize {
+        let mut cell = 0;
+        for a in (0..D).rev() {
+            cell = cell * self.axes[a].cells + index[a];
+        }
+        cell
+    }
+
+    /// The cell containing `x` (each axis as [`Grid::cell_of`]), `None` outside the grid.
+    ///
+    /// ```
+    /// use tlsmpm::grid::TensorGrid;
+    /// let grid = TensorGrid::new([1.0, 2.0], [4, 2]);
+    /// assert_eq!(grid.cell_of([0.3, 1.5]), Some(1 + 4 * 1));
+    /// assert_eq!(grid.cell_of([0.3, 2.5]), None);
+    /// ```
+    #[inline]
+    pub fn cell_of(&self, x: [f64; D]) -> Option<usize> {
+        let mut cell = 0;
+        for a in (0..D).rev() {
+            cell = cell * self.axes[a].cells + self.axes[a].cell_of(x[a])?;
+        }
+        Some(cell)
+    }
+
+    /// The axis indices of the cell containing `x`, clamped into the grid (for points known
+    /// to be inside, e.g. binned particles).
+    #[inline]
+    pub fn axis_cells(&self, x: [f64; D]) -> [usize; D] {
+        std::array::from_fn(|a| {
+            let g = &self.axes[a];
+            let xi = (x[a] - g.origin) * g.inv_h;
+            // `as usize` saturates: negative and NaN go to 0.
+            (xi as usize).min(g.cells - 1)
+        })
+    }
+
+    /// Number of cells in one layer of the last axis (`prod_{a < D-1} cells[a]`).
+    pub fn cells_per_layer(&self) -> usize {
+        self.axes[..D - 1].iter().map(|g| g.cells).product()
+    }
+}
+
+/// The non-zero basis functions at one point, one 1D [`Shape`] per axis.
+#[derive(Clone, Copy, Debug)]
+pub struct TensorShape<const D: usize> {
+    pub axes: [Shape; D],
+}
+
+impl<const D: usize> Default for TensorShape<D> {
+    fn default() -> Self {
+        Self {
+            axes: [Shape::default(); D],
+        }
+    }
+}
+
+impl<const D: usize> TensorShape<D> {
+    /// Call `visit(node, phi, grad_phi)` for every node of the support, with the node's
+    /// lexicographic index for DOF strides `stride` (see [`TensorBasis::strides`]), in
+    /// lexicographic order (x fastest).
+    #[inline(always)]
+    pub fn for_each_node(&self, stride: &[usize; D], mut visit: impl FnMut(usize, f64, [f64; D])) {
+        let s = &self.axes;
+        match D {
+            1 => {
+                for i in 0..s[0].len {
+                    let mut g = [0.0; D];
+                    g[0] = s[0].dphi[i];
+                    visit(s[0].first + i, s[0].phi[i], g);
+                }
+            }
+            2 => {
+                for j in 0..s[1].len {
+                    let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
+                    let row = (s[1].first + j) * stride[1] + s[0].first;
+                    for i in 0..s[0].len {
+                        let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
+                        let mut g = [0.0; D];
+                        g[0] = dx * py;
+                        g[1] = px * dy;
+                        visit(row + i, px * py, g);
+                    }
+                }
+            }
+            _ => {
+                for k in 0..s[2].len {
+                    let (pz, dz) = (s[2].phi[k], s[2].dphi[k]);
+                    let plane = (s[2].first + k) * stride[2];
+                    for j in 0..s[1].len {
+                        let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
+                        let row = plane + (s[1].first + j) * stride[1] + s[0].first;
+                        let (pyz, dyz, pydz) = (py * pz, dy * pz, py * dz);
+                        for i in 0..s[0].len {
+                            let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
+                            let mut g = [0.0; D];
+                            g[0] = dx * pyz;
+                            g[1] = px * dyz;
+                            g[2] = px * pydz;
+                            visit(row + i, px * pyz, g);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `sum_I phi_I g_I` of a grid vector field (one `[f64; D]` per node).
+    #[inline]
+    pub fn interpolate(&self, stride: &[usize; D], field: &[[f64; D]]) -> [f64; D] {
+        let mut out = [0.0; D];
+        self.for_each_node(stride, |node, phi, _| {
+            for (o, g) in out.iter_mut().zip(&field[node]) {
+                *o += phi * g;
+            }
+        });
+        out
+    }
+
+    /// `sum_I phi_I g_I` and the gradient `L_ab = sum_I g_{I,a} d phi_I / d x_b` of a grid
+    /// vector field.
+    #[inline]
+    pub fn interpolate_with_gradient(
+        &self,
+        stride: &[usize; D],
+        field: &[[f64; D]],
+    ) -> ([f64; D], [[f64; D]; D]) {
+        let mut value = [0.0; D];
+        let mut gradient = [[0.0; D]; D];
+        self.for_each_node(stride, |node, phi, grad| {
+            let g = &field[node];
+            for a in 0..D {
+                value[a] += phi * g[a];
+                for b in 0..D {
+                    gradient[a][b] += g[a] * grad[b];
+                }
+            }
+        });
+        (value, gradient)
+    }
+}
+
+/// The tensor product of the 1D basis `B` on each axis of a [`TensorGrid`].
+#[derive(Clone, Debug)]
+pub struct TensorBasis<const D: usize, B: Basis> {
+    pub grid: TensorGrid<D>,
+    axes: [B; D],
+    dofs: [usize; D],
+    strides: [usize; D],
+}
+
+impl<const D: usize, B: Basis + Clone> TensorBasis<D, B> {
+    /// The product of `make(axis_grid)` over the axes of `grid`.
+    pub fn new(grid: TensorGrid<D>, make: impl Fn(Grid) -> B) -> Self {
+        let axes: [B; D] = std::array::from_fn(|a| make(grid.axes[a]));
+        let dofs: [usize; D] = std::array::from_fn(|a| axes[a].num_dofs());
+        let mut strides = [1; D];
+        for a in 1..D {
+            strides[a] = strides[a - 1] * dofs[a - 1];
+        }
+        Self {
+            grid,
+            axes,
+            dofs,
+            strides,
+        }
+    }
+}
+
+impl<const D: usize, B: Basis> TensorBasis<D, B> {
+    /// Name of the 1D basis (`method.basis`).
+    pub fn name(&self) -> &'static str {
+        self.axes[0].name()
+    }
+
+    /// The 1D basis of axis `a`.
+    pub fn axis(&self, a: usize) -> &B {
+        &self.axes[a]
+    }
+
+    /// Total number of DOFs (nodes) `prod_a N_a`.
+    pub fn num_dofs(&self) -> usize {
+        self.dofs.iter().product()
+    }
+
+    /// DOFs per axis.
+    pub fn dofs(&self) -> [usize; D] {
+        self.dofs
+    }
+
+    /// Lexicographic node strides: node `I` has index `sum_a I_a strides[a]`.
+    pub fn strides(&self) -> &[usize; D] {
+        &self.strides
+    }
+
+    /// The DOF range `[first, end)` of the last axis that the cells of last-axis layers
+    /// `layers` can touch.
+    pub fn layer_dofs(&self, layers: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        let last = &self.axes[D - 1];
+        let (first, _) = last.cell_window(layers.start);
+        let (end_first, end_len) = last.cell_window(layers.end - 1);
+        first..end_first + end_len
+    }
+
+    /// Evaluate at `x` in the cell with axis indices `cell`, for a particle domain of
+    /// half-lengths `half_length` (ignored by point bases).
+    #[inline(always)]
+    pub fn eval_particle(
+        &self,
+        cell: [usize; D],
+        x: [f64; D],
+        half_length: [f64; D],
+        shape: &mut TensorShape<D>,
+    ) {
+        for a in 0..D {
+            self.axes[a].eval_particle(cell[a], x[a], half_length[a], &mut shape.axes[a]);
+        }
+    }
+
+    /// The DOFs of axis `a` on its `[min, max]` faces.
+    pub fn face_dofs(&self, a: usize) -> (usize, usize) {
+        self.axes[a].boundary_dofs()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{BSplineBasis, GimpBasis, LinearBasis};
+    use proptest::prelude::*;
+
+    fn check_partition_of_unity<const D: usize, B: Basis + Clone>(
+        basis: &TensorBasis<D, B>,
+        x: [f64; D],
+        half: [f64; D],
+    ) -> std::result::Result<(), TestCaseError> {
+        let cell = basis.grid.axis_cells(x);
+        let mut shape = TensorShape::default();
+        basis.eval_particle(cell, x, half, &mut shape);
+        let mut sum = 0.0;
+        let mut grad_sum = [0.0; D];
+        let mut min_phi = f64::INFINITY;
+        shape.for_each_node(basis.strides(), |_, phi, grad| {
+            sum += phi;
+            for b in 0..D {
+                grad_sum[b] += grad[b];
+            }
+            min_phi = min_phi.min(phi);
+        });
+        prop_assert!(min_phi >= -1e-14, "phi {min_phi}");
+        prop_assert!((sum - 1.0).abs() < 1e-13, "sum {sum}");
+        for g in grad_sum {
+            prop_assert!(g.abs() < 1e-10, "grad sum {g}");
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #[test]
+        fn tensor_products_are_partitions_of_unity(
+            nx in 1usize..9, ny in 1usize..9, nz in 1usize..5,
+            t in proptest::array::uniform3(0.0f64..1.0), order in 1usize..5,
+        ) {
+            let g2 = TensorGrid::new([1.0, 2.0], [nx, ny]);
+            let x2 = [t[0], 2.0 * t[1]];
+            check_partition_of_unity(&TensorBasis::new(g2, LinearBasis::new), x2, [0.0; 2])?;
+            let b2 = TensorBasis::new(g2, |g| BSplineBasis::new(g, order).unwrap());
+            check_partition_of_unity(&b2, x2, [0.0; 2])?;
+            let half = [0.25 / nx as f64, 0.5 / ny as f64];
+            check_partition_of_unity(&TensorBasis::new(g2, GimpBasis::new), x2, half)?;
+            let g3 = TensorGrid::new([1.0, 1.0, 0.5], [nx, ny, nz]);
+            let x3 = [t[0], t[1], 0.5 * t[2]];
+            let b3 = TensorBasis::new(g3, |g| BSplineBasis::new(g, order).unwrap());
+            check_partition_of_unity(&b3, x3, [0.0; 3])?;
+        }
+
+        #[test]
+        fn gradients_match_finite_differences(
+            t in proptest::array::uniform3(0.05f64..0.95), order in 1usize..4,
+        ) {
+            // A smooth grid field: f_I = sin(I . c); compare the interpolated gradient with
+            // central differences of the interpolation inside one cell.
+            let grid = TensorGrid::new([1.0, 1.0, 1.0], [5, 4, 3]);
+            let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, order + 1).unwrap());
+            let field: Vec<[f64; 3]> = (0..basis.num_dofs())
+                .map(|i| [(0.3 * i as f64).sin(), (0.7 * i as f64).cos(), 0.01 * i as f64])
+                .collect();
+            let x = t;
+            let cell = grid.axis_cells(x);
+            let eval = |x: [f64; 3]| {
+                let mut s = TensorShape::default();
+                basis.eval_particle(cell, x, [0.0; 3], &mut s);
+                s.interpolate_with_gradient(basis.strides(), &field)
+            };
+            let (_, gradient) = eval(x);
+            let eps = 1e-6;
+            for b in 0..3 {
+                let (mut xp, mut xm) = (x, x);
+                xp[b] += eps;
+                xm[b] -= eps;
+                if grid.axis_cells(xp) != cell || grid.axis_cells(xm) != cell {
+                    continue;
+                }
+                let (fp, fm) = (eval(xp).0, eval(xm).0);
+                for a in 0..3 {
+                    let fd = (fp[a] - fm[a]) / (2.0 * eps);
+                    prop_assert!((fd - gradient[a][b]).abs() < 1e-6 * (1.0 + fd.abs()),
+                        "a {a} b {b}: fd {fd} vs {}", gradient[a][b]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn cells_and_nodes_are_lexicographic_with_x_fastest() {
+        let grid = TensorGrid::new([2.0, 3.0, 1.0], [2, 3, 1]);
+        assert_eq!(grid.num_cells(), 6);
+        assert_eq!(grid.cell_index([1, 2, 0]), 1 + 2 * 2);
+        assert_eq!(grid.cell_of([1.5, 2.5, 0.5]), Some(5));
+        assert_eq!(grid.cell_of([1.5, 3.5, 0.5]), None);
+        let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, 2).unwrap());
+        assert_eq!(basis.dofs(), [4, 5, 3]);
+        assert_eq!(basis.strides(), &[1, 4, 20]);
+        assert_eq!(basis.num_dofs(), 60);
+        let mut shape = TensorShape::default();
+        basis.eval_particle([1, 2, 0], [1.5, 2.5, 0.5], [0.0; 3], &mut shape);
+        let mut nodes = Vec::new();
+        shape.for_each_node(basis.strides(), |node, _, _| nodes.push(node));
+        assert_eq!(nodes.len(), 27);
+        assert!(nodes.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(nodes[0], 1 + 2 * 4);
+        assert_eq!(basis.layer_dofs(0..1), 0..3);
+    }
+}

@@ -1,0 +1,265 @@
+//! The direct (standard MPM) particle-to-grid mapping of the dimension-generic core
+//! (`docs/dimensions.md`), with the deterministic slab scatter of
+//! [`super::tensor_scatter`]:
+//!
+//! ```text
+//! m_I   = sum_p m_p phi_I(x_p)
+//! f_I   = sum_p ( -V_p sigma_p . grad phi_I(x_p) + m_p b_p phi_I(x_p) )
+//! p_I   = sum_p m_p v_p phi_I(x_p)
+//! ```
+//! Particle-domain bases (GIMP) are evaluated over the domain of half-lengths
+//! `l_a = l0_a F_aa` (the initial half spacing stretched with the particle).
+//! Partition of unity makes `sum_I m_I = sum_p m_p` and `sum_I p_I = sum_p m_p v_p`: mass
+//! and every momentum component are conserved by the mapping to round-off.
+
+use super::tensor_scatter::TensorScatter;
+use crate::grid::{Basis, TensorBasis, TensorShape};
+use crate::particles::tensor::stress_index;
+use crate::particles::TensorParticles;
+use std::ops::Range;
+
+/// Grid vectors of a step: one value or `[f64; D]` per node.
+#[derive(Clone, Debug)]
+pub struct TensorGridFields<const D: usize> {
+    pub mass: Vec<f64>,
+    /// Total force `f_ext - f_int`.
+    pub force: Vec<[f64; D]>,
+    pub momentum: Vec<[f64; D]>,
+    pub acceleration: Vec<[f64; D]>,
+    pub velocity: Vec<[f64; D]>,
+    /// Scatter output `[m, f_x, f_y, f_z]`.
+    mass_force: Vec<[f64; 4]>,
+}
+
+impl<const D: usize> TensorGridFields<D> {
+    /// Zeroed vectors for `num_dofs` nodes.
+    pub fn new(num_dofs: usize) -> Self {
+        Self {
+            mass: vec![0.0; num_dofs],
+            force: vec![[0.0; D]; num_dofs],
+            momentum: vec![[0.0; D]; num_dofs],
+            acceleration: vec![[0.0; D]; num_dofs],
+            velocity: vec![[0.0; D]; num_dofs],
+            mass_force: vec![[0.0; 4]; num_dofs],
+        }
+    }
+}
+
+/// The body force of a step: one acceleration for all particles, or one per particle
+/// (components `[a][p]`, in particle storage order).
+#[derive(Clone, Copy, Debug)]
+pub enum TensorBody<'a, const D: usize> {
+    Uniform([f64; D]),
+    PerParticle(&'a [Vec<f64>; D]),
+}
+
+/// The domain half-lengths of particle `p` (zero for point bases).
+#[inline(always)]
+pub fn half_lengths<const D: usize>(
+    particles: &TensorParticles<D>,
+    half_length0: &Option<[f64; D]>,
+    p: usize,
+) -> [f64; D] {
+    match half_length0 {
+        Some(l0) => std::array::from_fn(|a| l0[a] * particles.deformation_gradient[a][a][p].abs()),
+        None => [0.0; D],
+    }
+}
+
+/// Scatter buffers of the direct mapping.
+#[derive(Clone, Debug)]
+pub struct TensorDirectMapping<const D: usize> {
+    mass_force: TensorScatter<4>,
+    momentum: TensorScatter<D>,
+    /// Initial half spacing of the particles for particle-domain bases, `None` for point
+    /// bases.
+    pub half_length0: Option<[f64; D]>,
+}
+
+impl<const D: usize> TensorDirectMapping<D> {
+    /// Buffers for `basis`.
+    pub fn new<B: Basis>(basis: &TensorBasis<D, B>, half_length0: Option<[f64; D]>) -> Self {
+        Self {
+            mass_force: TensorScatter::new(basis),
+            momentum: TensorScatter::new(basis),
+            half_length0,
+        }
+    }
+
+    /// `m_I` and `f_I = f_ext - f_int` into `fields.mass`, `fields.force`.
+    pub fn map_mass_and_force<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        body: TensorBody<'_, D>,
+        fields: &mut TensorGridFields<D>,
+    ) {
+        let strides = *basis.strides();
+        let half0 = self.half_length0;
+        let p = particles;
+        self.mass_force.scatter(
+            cell_start,
+            &mut fields.mass_force,
+            |range: Range<usize>, lo, local| {
+                let mut shape = TensorShape::<D>::default();
+                for k in range {
+                    let x = p.position(k);
+                    let cell = basis.grid.axis_cells(x);
+                    basis.eval_particle(cell, x, half_lengths(p, &half0, k), &mut shape);
+                    let (m, vol) = (p.mass[k], p.volume[k]);
+                    let b = match body {
+                        TensorBody::Uniform(b) => b,
+                        TensorBody::PerParticle(b) => std::array::from_fn(|a| b[a][k]),
+                    };
+                    let mut sigma = [[0.0; D]; D];
+                    for (a, row) in sigma.iter_mut().enumerate() {
+                        for (c, s) in row.iter_mut().enumerate() {
+                            *s = vol * p.stress[stress_index(a, c)][k];
+                        }
+                    }
+                    shape.for_each_node(&strides, |node, phi, grad| {
+                        let out = &mut local[node - lo];
+                        out[0] += m * phi;
+                        for a in 0..D {
+                            let mut internal = 0.0;
+                            for c in 0..D {
+                                internal += sigma[a][c] * grad[c];
+                            }
+                            out[1 + a] += m * b[a] * phi - internal;
+                        }
+                    });
+                }
+            },
+        );
+        for ((m, f), mf) in fields
+            .mass
+            .iter_mut()
+            .zip(fields.force.iter_mut())
+            .zip(&fields.mass_force)
+        {
+            *m = mf[0];
+            f.copy_from_slice(&mf[1..=D]);
+        }
+    }
+
+    /// `p_I = sum_p m_p v_p phi_I` into `fields.momentum`.
+    pub fn map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        fields: &mut TensorGridFields<D>,
+    ) {
+        let strides = *basis.strides();
+        let half0 = self.half_length0;
+        let p = particles;
+        self.momentum.scatter(
+            cell_start,
+            &mut fields.momentum,
+            |range: Range<usize>, lo, local| {
+                let mut shape = TensorShape::<D>::default();
+                for k in range {
+                    let x = p.position(k);
+                    let cell = basis.grid.axis_cells(x);
+                    basis.eval_particle(cell, x, half_lengths(p, &half0, k), &mut shape);
+                    let mv: [f64; D] = std::array::from_fn(|a| p.mass[k] * p.v[a][k]);
+                    shape.for_each_node(&strides, |node, phi, _| {
+                        let out = &mut local[node - lo];
+                        for a in 0..D {
+                            out[a] += mv[a] * phi;
+                        }
+                    });
+                }
+            },
+        );
+    }
+
+    /// MUSL steps 3–4 fused: `v_p += dt sum_I phi_I a_I`, then `p_I = sum_p m_p v_p phi_I`
+    /// with the updated velocities, in one pass (one shape evaluation per particle).
+    pub fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &mut TensorParticles<D>,
+        cell_start: &[usize],
+        dt: f64,
+        fields: &mut TensorGridFields<D>,
+    ) {
+        let strides = *basis.strides();
+        let half0 = self.half_length0;
+        // Each task owns the velocity chunks of its particles.
+        let ranges: Vec<Range<usize>> = self
+            .momentum
+            .tasks()
+            .iter()
+            .map(|t| cell_start[t.cells.start]..cell_start[t.cells.end])
+            .collect();
+        let TensorParticles {
+            x,
+            v,
+            mass,
+            deformation_gradient,
+            ..
+        } = particles;
+        let (x, mass, deformation_gradient) = (&*x, &*mass, &*deformation_gradient);
+        let states = split_components(v, &ranges);
+        let acceleration = &fields.acceleration;
+        self.momentum.scatter_with(
+            cell_start,
+            states,
+            &mut fields.momentum,
+            |v: [&mut [f64]; D], range: Range<usize>, lo, local| {
+                let mut shape = TensorShape::<D>::default();
+                let start = range.start;
+                for k in range {
+                    let position: [f64; D] = std::array::from_fn(|a| x[a][k]);
+                    let cell = basis.grid.axis_cells(position);
+                    let half = match &half0 {
+                        Some(l0) => {
+                            std::array::from_fn(|a| l0[a] * deformation_gradient[a][a][k].abs())
+                        }
+                        None => [0.0; D],
+                    };
+                    basis.eval_particle(cell, position, half, &mut shape);
+                    let dv = shape.interpolate(&strides, acceleration);
+                    let mut mv = [0.0; D];
+                    for a in 0..D {
+                        let velocity = &mut v[a][k - start];
+                        *velocity += dt * dv[a];
+                        mv[a] = mass[k] * *velocity;
+                    }
+                    shape.for_each_node(&strides, |node, phi, _| {
+                        let out = &mut local[node - lo];
+                        for a in 0..D {
+                            out[a] += mv[a] * phi;
+                        }
+                    });
+                }
+            },
+        );
+    }
+}
+
+/// Split each component array into consecutive chunks of the lengths of `ranges` (which
+/// tile `0..n` in order): one `[&mut [f64]; D]` per range.
+pub fn split_components<'a, const D: usize>(
+    components: &'a mut [Vec<f64>; D],
+    ranges: &[Range<usize>],
+) -> Vec<[&'a mut [f64]; D]> {
+    let mut per_component: Vec<std::vec::IntoIter<&'a mut [f64]>> = components
+        .iter_mut()
+        .map(|c| {
+            let mut chunks = Vec::with_capacity(ranges.len());
+            let mut rest = c.as_mut_slice();
+            for r in ranges {
+                let (head, tail) = std::mem::take(&mut rest).split_at_mut(r.len());
+                chunks.push(head);
+                rest = tail;
+            }
+            chunks.into_iter()
+        })
+        .collect();
+    (0..ranges.len())
+        .map(|_| std::array::from_fn(|a| per_component[a].next().unwrap_or_default()))
+        .collect()
+}

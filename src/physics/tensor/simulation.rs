@@ -1,0 +1,237 @@
+//! The time loop of the dimension-generic core: fixed or automatic time steps, the body
+//! force of each step, and the diagnostics of `history.csv` (as in 1D: conservation errors
+//! of the mapping, energies, cumulative grid crossings).
+//!
+//! With `time.dt = "auto"` the step is `cfl * dt_0 * c_0 / (c + |v|)_max`, recomputed
+//! every [`AUTO_DT_EVERY`] steps from the current particle state: `dt_0` is the stability
+//! limit of the initial configuration (see [`super::stability`]), `c_0` the initial wave
+//! speed and `(c + |v|)_max` the largest `sqrt(M / rho_p) + |v_p|` now (`M = lambda + 2
+//! mu`). The last step is shortened to end exactly at `time.end`.
+
+use super::step::{TensorStepReport, TensorStepper};
+use crate::error::Result;
+use crate::grid::Basis;
+use crate::mapping::tensor_direct::TensorBody;
+use crate::particles::TensorParticles;
+use crate::physics::HistoryRow;
+
+/// Steps between recomputations of an automatic time step.
+pub const AUTO_DT_EVERY: usize = 10;
+
+/// The body force of a problem: uniform `b(t)`, or per particle `b(X_p, t)`.
+pub trait TensorBodySource<const D: usize>: Sync {
+    /// `Some(b(t))` for a uniform body force.
+    fn uniform(&self, t: f64) -> Option<[f64; D]>;
+    /// `b(X_p, t)` at every particle (components `[a][p]`).
+    fn at_particles(&self, x0: &[Vec<f64>; D], t: f64, out: &mut [Vec<f64>; D]);
+}
+
+/// Object-safe view of a [`TensorStepper`] (dispatch once per step).
+pub trait TensorTimeStepper<const D: usize>: Send + Sync {
+    fn step(
+        &mut self,
+        particles: &mut TensorParticles<D>,
+        body: TensorBody<'_, D>,
+        dt: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<TensorStepReport>;
+    fn energies(&self, particles: &TensorParticles<D>) -> (f64, f64);
+    /// `method.basis`.
+    fn basis_name(&self) -> &'static str;
+    /// P-wave modulus of the law.
+    fn wave_modulus(&self) -> f64;
+}
+
+impl<const D: usize, B: Basis> TensorTimeStepper<D> for TensorStepper<D, B> {
+    fn step(
+        &mut self,
+        particles: &mut TensorParticles<D>,
+        body: TensorBody<'_, D>,
+        dt: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<TensorStepReport> {
+        TensorStepper::step(self, particles, body, dt, step, time)
+    }
+    fn energies(&self, particles: &TensorParticles<D>) -> (f64, f64) {
+        TensorStepper::energies(self, particles)
+    }
+    fn basis_name(&self) -> &'static str {
+        self.basis.name()
+    }
+    fn wave_modulus(&self) -> f64 {
+        self.material.wave_modulus()
+    }
+}
+
+/// How the time step is chosen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeStepping {
+    Fixed(f64),
+    /// `cfl` times the current stability limit estimate; `initial_limit` is the limit of
+    /// the initial configuration and `initial_speed` its wave speed.
+    Auto {
+        cfl: f64,
+        initial_limit: f64,
+        initial_speed: f64,
+    },
+}
+
+/// A running 2D / 3D simulation.
+pub struct TensorSimulation<const D: usize> {
+    pub stepper: Box<dyn TensorTimeStepper<D>>,
+    pub particles: TensorParticles<D>,
+    pub history: Vec<HistoryRow>,
+    pub steps_done: usize,
+    pub time: f64,
+    pub end_time: f64,
+    /// The step size of the last step.
+    pub dt: f64,
+    pub stepping: TimeStepping,
+    pub grid_crossings: usize,
+    pub max_mass_error: f64,
+    pub max_momentum_error: f64,
+    body_field: [Vec<f64>; D],
+}
+
+impl<const D: usize> TensorSimulation<D> {
+    pub fn new(
+        stepper: Box<dyn TensorTimeStepper<D>>,
+        particles: TensorParticles<D>,
+        stepping: TimeStepping,
+        end_time: f64,
+    ) -> Self {
+        Self {
+            stepper,
+            particles,
+            history: Vec::new(),
+            steps_done: 0,
+            time: 0.0,
+            end_time,
+            dt: match stepping {
+                TimeStepping::Fixed(dt) => dt,
+                TimeStepping::Auto { .. } => 0.0,
+            },
+            stepping,
+            grid_crossings: 0,
+            max_mass_error: 0.0,
+            max_momentum_error: 0.0,
+            body_field: std::array::from_fn(|_| Vec::new()),
+        }
+    }
+
+    /// Number of steps of a fixed step, `round(end / dt)`; `None` for automatic steps.
+    pub fn fixed_steps(&self) -> Option<usize> {
+        match self.stepping {
+            TimeStepping::Fixed(dt) => Some((self.end_time / dt).round() as usize),
+            TimeStepping::Auto { .. } => None,
+        }
+    }
+
+    /// The automatic step from the current state (see the module doc).
+    fn auto_dt(&self, cfl: f64, initial_limit: f64, initial_speed: f64) -> f64 {
+        let p = &self.particles;
+        let modulus = self.stepper.wave_modulus();
+        let fastest = (0..p.len())
+            .map(|k| {
+                let speed2: f64 = (0..D).map(|a| p.v[a][k] * p.v[a][k]).sum();
+                (modulus / p.density[k]).sqrt() + speed2.sqrt()
+            })
+            .fold(0.0, f64::max);
+        let dt = cfl * initial_limit * initial_speed / fastest.max(initial_speed * 1e-12);
+        dt.min(self.end_time - self.time)
+    }
+
+    /// Whether the run has reached its end time (or its fixed number of steps).
+    pub fn finished(&self) -> bool {
+        match self.fixed_steps() {
+            Some(n) => self.steps_done >= n,
+            None => self.time >= self.end_time * (1.0 - 1e-12),
+        }
+    }
+
+    /// Run to the end time. `body` gives the body force; `after_step(sim)` runs after every
+    /// step and may stop the run early by returning `Ok(false)`. On failure `steps_done`
+    /// and `history` stop at the last completed step.
+    pub fn run(
+        &mut self,
+        body: &dyn TensorBodySource<D>,
+        after_step: &mut dyn FnMut(&TensorSimulation<D>) -> Result<bool>,
+    ) -> Result<()> {
+        while !self.finished() {
+            let step = self.steps_done + 1;
+            let dt = match self.stepping {
+                TimeStepping::Fixed(dt) => dt,
+                TimeStepping::Auto {
+                    cfl,
+                    initial_limit,
+                    initial_speed,
+                } => {
+                    if self.steps_done.is_multiple_of(AUTO_DT_EVERY) || self.dt == 0.0 {
+                        self.auto_dt(cfl, initial_limit, initial_speed)
+                    } else {
+                        self.dt.min(self.end_time - self.time)
+                    }
+                }
+            };
+            let start_time = self.time;
+            let end_time = match self.stepping {
+                TimeStepping::Fixed(dt) => step as f64 * dt,
+                TimeStepping::Auto { .. } => start_time + dt,
+            };
+            let report = match body.uniform(end_time) {
+                Some(b) => self.stepper.step(
+                    &mut self.particles,
+                    TensorBody::Uniform(b),
+                    dt,
+                    step,
+                    end_time,
+                )?,
+                None => {
+                    let mut field = std::mem::replace(
+                        &mut self.body_field,
+                        std::array::from_fn(|_| Vec::new()),
+                    );
+                    for f in field.iter_mut() {
+                        f.resize(self.particles.len(), 0.0);
+                    }
+                    body.at_particles(&self.particles.x0, start_time, &mut field);
+                    let report = self.stepper.step(
+                        &mut self.particles,
+                        TensorBody::PerParticle(&field),
+                        dt,
+                        step,
+                        end_time,
+                    );
+                    self.body_field = field;
+                    report?
+                }
+            };
+            self.dt = dt;
+            self.time = end_time;
+            self.steps_done = step;
+            self.grid_crossings += report.crossings;
+            self.max_mass_error = self.max_mass_error.max(report.mass_error);
+            if let Some(e) = report.momentum_error {
+                self.max_momentum_error = self.max_momentum_error.max(e);
+            }
+            let (kinetic_energy, strain_energy) = self.stepper.energies(&self.particles);
+            self.history.push(HistoryRow {
+                step,
+                time: end_time,
+                mass_rel_error: report.mass_error,
+                momentum_rel_error: report.momentum_error,
+                liquid_mass_rel_error: None,
+                liquid_momentum_rel_error: None,
+                kinetic_energy,
+                strain_energy,
+                grid_crossings: self.grid_crossings,
+            });
+            if !after_step(self)? {
+                break;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,464 @@
+//! The Euler–Cromer step of the dimension-generic core, MUSL (default) or USL, lumped mass
+//! (`docs/dimensions.md`):
+//!
+//! ```text
+//! 1. m_I, f_I = f_ext - f_int                  (direct mapping)
+//! 2. a_I = f_I / m_I;                          held components of face nodes = 0
+//! 3. MUSL: v_p += dt phi^T a, p_I = sum_p m_p v_p phi_I (one fused pass); v_I = p_I / m_I
+//!    USL:  v_I = p_I(v_p^old) / m_I + dt a_I;  v_p += dt phi^T a (in the last pass)
+//!    held components of v_I = 0
+//! 4. x_p += dt phi^T v, u_p += dt phi^T v, L_p = sum_I v_I (x) grad phi_I
+//! 5. F_p <- (I + dt L_p) F_p, V_p = det F_p V_p^0, rho_p = m_p / V_p, sigma_p = law(...)
+//! ```
+//! then the new cells, the counting sort when a particle changed cell, and the
+//! conservation errors of the mapping: mass `|sum_I m_I - sum_p m_p| / sum_p m_p`, and per
+//! momentum component `|sum_I p_I - sum_p m_p v_p| / sum_p m_p |v_p|`, the largest over
+//! the components.
+
+use super::boundary::NodeConstraints;
+use super::material::{LinearElasticTensor, NeoHookeanTensor, TensorLaw, TensorMaterial};
+use crate::config::Scheme;
+use crate::error::{Error, Result};
+use crate::grid::{Basis, TensorBasis, TensorShape};
+use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
+use crate::numerics::sum::{deterministic_sum, deterministic_sums};
+use crate::particles::TensorParticles;
+use rayon::prelude::*;
+
+/// Particles per rayon task in the particle update.
+const PARTICLES_PER_TASK: usize = 2048;
+
+/// Diagnostics of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TensorStepReport {
+    pub mass_error: f64,
+    /// `None` when all particles are at rest.
+    pub momentum_error: Option<f64>,
+    pub crossings: usize,
+}
+
+/// The 2D / 3D stepper, generic over the dimension and the 1D basis of each axis.
+pub struct TensorStepper<const D: usize, B: Basis> {
+    pub basis: TensorBasis<D, B>,
+    pub mapping: TensorDirectMapping<D>,
+    pub material: TensorMaterial,
+    pub scheme: Scheme,
+    pub constraints: NodeConstraints<D>,
+    pub fields: TensorGridFields<D>,
+    pub cell_start: Vec<usize>,
+    order: Vec<usize>,
+    total_mass: f64,
+}
+
+impl<const D: usize, B: Basis> TensorStepper<D, B> {
+    /// A stepper for `particles`, which are sorted by cell here.
+    pub fn new(
+        basis: TensorBasis<D, B>,
+        mapping: TensorDirectMapping<D>,
+        material: TensorMaterial,
+        scheme: Scheme,
+        constraints: NodeConstraints<D>,
+        particles: &mut TensorParticles<D>,
+    ) -> Self {
+        let mut stepper = Self {
+            fields: TensorGridFields::new(basis.num_dofs()),
+            basis,
+            mapping,
+            material,
+            scheme,
+            constraints,
+            cell_start: Vec::new(),
+            order: Vec::new(),
+            total_mass: deterministic_sum(particles.len(), |p| particles.mass[p]),
+        };
+        let cells = stepper.basis.grid.num_cells();
+        particles.sort_by_cell(cells, &mut stepper.cell_start, &mut stepper.order);
+        stepper
+    }
+
+    /// Advance `particles` by `dt` with body force `body`; `step` and `time` label
+    /// failures.
+    pub fn step(
+        &mut self,
+        particles: &mut TensorParticles<D>,
+        body: TensorBody<'_, D>,
+        dt: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<TensorStepReport> {
+        let fields = &mut self.fields;
+        // 1. Mass and force.
+        self.mapping
+            .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields);
+        let grid_mass = fields.mass.iter().sum::<f64>();
+        let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
+        if !mass_error.is_finite() {
+            return Err(Error::NonFinite {
+                field: "grid mass",
+                step,
+                time,
+            });
+        }
+        let mut momentum_error = None;
+        if self.scheme == Scheme::Usl {
+            self.mapping
+                .map_momentum(&self.basis, particles, &self.cell_start, fields);
+            momentum_error = particle_momentum_error(particles, &fields.momentum);
+        }
+        // 2. Accelerations.
+        divide_by_mass(&fields.mass, &fields.force, &mut fields.acceleration);
+        self.constraints.apply(&mut fields.acceleration);
+        // 3. Grid velocities.
+        match self.scheme {
+            Scheme::Musl => {
+                self.mapping.update_velocities_and_map_momentum(
+                    &self.basis,
+                    particles,
+                    &self.cell_start,
+                    dt,
+                    fields,
+                );
+                divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity);
+            }
+            Scheme::Usl => {
+                divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity);
+                for (v, a) in fields.velocity.iter_mut().zip(&fields.acceleration) {
+                    for c in 0..D {
+                        v[c] += dt * a[c];
+                    }
+                }
+            }
+        }
+        self.constraints.apply(&mut fields.velocity);
+        if self.scheme == Scheme::Musl {
+            momentum_error = particle_momentum_error(particles, &fields.momentum);
+        }
+        // 4.-5. Kinematics and stress.
+        let usl_acceleration = (self.scheme == Scheme::Usl).then_some(&fields.acceleration[..]);
+        let outcome = match self.material {
+            TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor>(
+                &self.basis,
+                &self.mapping.half_length0,
+                particles,
+                &fields.velocity,
+                usl_acceleration,
+                dt,
+                law,
+            ),
+            TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor>(
+                &self.basis,
+                &self.mapping.half_length0,
+                particles,
+                &fields.velocity,
+                usl_acceleration,
+                dt,
+                law,
+            ),
+        };
+        if let Some((particle, field)) = outcome.failure {
+            return Err(match field {
+                "volume" => Error::CollapsedVolume {
+                    particle: particles.id[particle],
+                    step,
+                    time,
+                },
+                "left" => Error::LeftGrid {
+                    particle: particles.id[particle],
+                    x: particles.x[0][particle],
+                    step,
+                    time,
+                },
+                field => Error::NonFinite { field, step, time },
+            });
+        }
+        if outcome.crossings > 0 {
+            let cells = self.basis.grid.num_cells();
+            particles.sort_by_cell(cells, &mut self.cell_start, &mut self.order);
+        }
+        Ok(TensorStepReport {
+            mass_error,
+            momentum_error,
+            crossings: outcome.crossings,
+        })
+    }
+
+    /// Kinetic energy `sum_p m_p |v_p|^2 / 2` and stored energy of the particles.
+    pub fn energies(&self, particles: &TensorParticles<D>) -> (f64, f64) {
+        let p = particles;
+        let material = self.material;
+        let [kinetic, stored] = deterministic_sums(p.len(), |k| {
+            let speed2: f64 = (0..D).map(|a| p.v[a][k] * p.v[a][k]).sum();
+            let stress: [f64; 6] = std::array::from_fn(|c| p.stress[c][k]);
+            let f: [[f64; D]; D] =
+                std::array::from_fn(|a| std::array::from_fn(|b| p.deformation_gradient[a][b][k]));
+            let stored = match material {
+                TensorMaterial::Linear(l) => {
+                    l.stored_energy(&stress, &f, p.volume[k], p.volume0[k])
+                }
+                TensorMaterial::NeoHookean(l) => {
+                    l.stored_energy(&stress, &f, p.volume[k], p.volume0[k])
+                }
+            };
+            [0.5 * p.mass[k] * speed2, stored]
+        });
+        (kinetic, stored)
+    }
+}
+
+/// `out_I = g_I / m_I` where `m_I > 0`, else 0.
+fn divide_by_mass<const D: usize>(mass: &[f64], g: &[[f64; D]], out: &mut [[f64; D]]) {
+    out.par_iter_mut()
+        .with_min_len(4096)
+        .zip(mass.par_iter().zip(g.par_iter()))
+        .for_each(|(o, (&m, g))| {
+            *o = if m > 0.0 {
+                std::array::from_fn(|c| g[c] / m)
+            } else {
+                [0.0; D]
+            };
+        });
+}
+
+/// `max_c |sum_I p_I,c - sum_p m_p v_p,c| / sum_p m_p |v_p|` (`None` at rest).
+fn particle_momentum_error<const D: usize>(
+    particles: &TensorParticles<D>,
+    grid_momentum: &[[f64; D]],
+) -> Option<f64> {
+    let (particle, scale) = particle_momentum(particles);
+    let mut error: f64 = 0.0;
+    for c in 0..D {
+        let grid: f64 = grid_momentum.iter().map(|g| g[c]).sum();
+        error = error.max((grid - particle[c]).abs());
+    }
+    (scale > 0.0).then_some(error / scale)
+}
+
+/// `sum_p m_p v_p` (components 0..D of the array) and `sum_p m_p |v_p|`.
+fn particle_momentum<const D: usize>(p: &TensorParticles<D>) -> ([f64; 3], f64) {
+    let [mx, my, mz, scale] = deterministic_sums(p.len(), |k| {
+        let m = p.mass[k];
+        let mut out = [0.0; 4];
+        let mut speed2 = 0.0;
+        for a in 0..D {
+            out[a] = m * p.v[a][k];
+            speed2 += p.v[a][k] * p.v[a][k];
+        }
+        out[3] = m * speed2.sqrt();
+        out
+    });
+    ([mx, my, mz], scale)
+}
+
+struct Outcome {
+    crossings: usize,
+    /// First failing particle (lowest index) and the failing field ("volume", "left" for
+    /// a particle outside the grid, or the non-finite field's name).
+    failure: Option<(usize, &'static str)>,
+}
+
+/// `det F` of a `D x D` matrix.
+#[inline(always)]
+pub fn determinant<const D: usize>(f: &[[f64; D]; D]) -> f64 {
+    match D {
+        1 => f[0][0],
+        2 => f[0][0] * f[1][1] - f[0][1] * f[1][0],
+        _ => {
+            f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1])
+                - f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0])
+                + f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0])
+        }
+    }
+}
+
+/// The mutable fields of one chunk of particles (see [`update_particles`]).
+struct ChunkMut<'a, const D: usize> {
+    start: usize,
+    x: [&'a mut [f64]; D],
+    u: [&'a mut [f64]; D],
+    v: [&'a mut [f64]; D],
+    stress: [&'a mut [f64]; 6],
+    f: [[&'a mut [f64]; D]; D],
+    volume: &'a mut [f64],
+    density: &'a mut [f64],
+    cell: &'a mut [usize],
+}
+
+/// Split `field` into consecutive chunks of the lengths of `ranges` (which tile it).
+fn split<'a, T>(field: &'a mut [T], ranges: &[std::ops::Range<usize>]) -> Vec<&'a mut [T]> {
+    let mut chunks = Vec::with_capacity(ranges.len());
+    let mut rest = field;
+    for r in ranges {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(r.len());
+        chunks.push(head);
+        rest = tail;
+    }
+    chunks
+}
+
+/// [`split`] for each of `N` component arrays, regrouped per chunk.
+fn split_array<'a, const N: usize>(
+    fields: &'a mut [Vec<f64>; N],
+    ranges: &[std::ops::Range<usize>],
+) -> Vec<[&'a mut [f64]; N]> {
+    let mut per_field: Vec<std::vec::IntoIter<&'a mut [f64]>> = fields
+        .iter_mut()
+        .map(|f| split(f, ranges).into_iter())
+        .collect();
+    (0..ranges.len())
+        .map(|_| std::array::from_fn(|a| per_field[a].next().unwrap_or_default()))
+        .collect()
+}
+
+fn chunks_of<'a, const D: usize>(
+    p: &'a mut TensorParticles<D>,
+    ranges: &[std::ops::Range<usize>],
+) -> Vec<ChunkMut<'a, D>> {
+    let mut x = split_array(&mut p.x, ranges).into_iter();
+    let mut u = split_array(&mut p.u, ranges).into_iter();
+    let mut v = split_array(&mut p.v, ranges).into_iter();
+    let mut stress = split_array(&mut p.stress, ranges).into_iter();
+    let mut f_rows: Vec<std::vec::IntoIter<[&'a mut [f64]; D]>> = p
+        .deformation_gradient
+        .iter_mut()
+        .map(|row| split_array(row, ranges).into_iter())
+        .collect();
+    let mut volume = split(&mut p.volume, ranges).into_iter();
+    let mut density = split(&mut p.density, ranges).into_iter();
+    let mut cell = split(&mut p.cell, ranges).into_iter();
+    ranges
+        .iter()
+        .map(|r| ChunkMut {
+            start: r.start,
+            x: x.next()
+                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
+            u: u.next()
+                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
+            v: v.next()
+                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
+            stress: stress
+                .next()
+                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
+            f: std::array::from_fn(|a| {
+                f_rows[a]
+                    .next()
+                    .unwrap_or_else(|| std::array::from_fn(|_| Default::default()))
+            }),
+            volume: volume.next().unwrap_or_default(),
+            density: density.next().unwrap_or_default(),
+            cell: cell.next().unwrap_or_default(),
+        })
+        .collect()
+}
+
+/// Steps 4–5 and the new cells (see the module doc); with `usl_acceleration` also
+/// `v_p += dt phi^T a`. Parallel over fixed chunks of particles, each task writing only
+/// its own chunk.
+#[allow(clippy::too_many_arguments)]
+fn update_particles<const D: usize, B: Basis, L: TensorLaw>(
+    basis: &TensorBasis<D, B>,
+    half_length0: &Option<[f64; D]>,
+    particles: &mut TensorParticles<D>,
+    velocity: &[[f64; D]],
+    usl_acceleration: Option<&[[f64; D]]>,
+    dt: f64,
+    law: L,
+) -> Outcome {
+    let n = particles.len();
+    let strides = *basis.strides();
+    let grid = basis.grid;
+    let ranges: Vec<std::ops::Range<usize>> = (0..n)
+        .step_by(PARTICLES_PER_TASK)
+        .map(|s| s..(s + PARTICLES_PER_TASK).min(n))
+        .collect();
+    let mass = std::mem::take(&mut particles.mass);
+    let volume0 = std::mem::take(&mut particles.volume0);
+    let chunks = chunks_of(particles, &ranges);
+    let results: Vec<(usize, Option<(usize, &'static str)>)> = chunks
+        .into_par_iter()
+        .map(|c| {
+            let mut shape = TensorShape::<D>::default();
+            let mut crossings = 0;
+            let mut failure = None;
+            for i in 0..c.volume.len() {
+                let k = c.start + i;
+                let x: [f64; D] = std::array::from_fn(|a| c.x[a][i]);
+                let f_old: [[f64; D]; D] =
+                    std::array::from_fn(|a| std::array::from_fn(|b| c.f[a][b][i]));
+                let half = match half_length0 {
+                    Some(l0) => std::array::from_fn(|a| l0[a] * f_old[a][a].abs()),
+                    None => [0.0; D],
+                };
+                let cell = grid.axis_cells(x);
+                basis.eval_particle(cell, x, half, &mut shape);
+                let (v_grid, l) = shape.interpolate_with_gradient(&strides, velocity);
+                if let Some(a) = usl_acceleration {
+                    let dv = shape.interpolate(&strides, a);
+                    for d in 0..D {
+                        c.v[d][i] += dt * dv[d];
+                    }
+                }
+                let mut new_x = [0.0; D];
+                for d in 0..D {
+                    let du = dt * v_grid[d];
+                    c.u[d][i] += du;
+                    c.x[d][i] += du;
+                    new_x[d] = c.x[d][i];
+                }
+                // F <- (I + dt L) F.
+                let dl: [[f64; D]; D] =
+                    std::array::from_fn(|a| std::array::from_fn(|b| dt * l[a][b]));
+                let mut f = f_old;
+                for a in 0..D {
+                    for b in 0..D {
+                        let mut sum = f_old[a][b];
+                        for e in 0..D {
+                            sum += dl[a][e] * f_old[e][b];
+                        }
+                        f[a][b] = sum;
+                        c.f[a][b][i] = sum;
+                    }
+                }
+                let j = determinant(&f);
+                let volume = j * volume0[k];
+                c.volume[i] = volume;
+                c.density[i] = mass[k] / volume;
+                let mut stress: [f64; 6] = std::array::from_fn(|s| c.stress[s][i]);
+                law.update(&mut stress, &dl, &f, j);
+                let mut finite = true;
+                for (s, value) in stress.iter().enumerate() {
+                    c.stress[s][i] = *value;
+                    finite &= value.is_finite();
+                }
+                let bad = if !(0..D).all(|d| c.v[d][i].is_finite()) {
+                    Some("velocity")
+                } else if j.is_nan() || j <= 0.0 {
+                    Some("volume")
+                } else if !finite {
+                    Some("stress")
+                } else if !new_x.iter().all(|x| x.is_finite()) {
+                    Some("position")
+                } else {
+                    None
+                };
+                match (bad, grid.cell_of(new_x)) {
+                    (None, Some(e)) => {
+                        crossings += usize::from(e != c.cell[i]);
+                        c.cell[i] = e;
+                    }
+                    (None, None) => failure = failure.or(Some((k, "left"))),
+                    (Some(b), _) => failure = failure.or(Some((k, b))),
+                }
+            }
+            (crossings, failure)
+        })
+        .collect();
+    particles.mass = mass;
+    particles.volume0 = volume0;
+    let mut crossings = 0;
+    let mut failure: Option<(usize, &'static str)> = None;
+    for (c, f) in results {
+        crossings += c;
+        failure = failure.or(f);
+    }
+    Outcome { crossings, failure }
+}
