@@ -1,9 +1,12 @@
 //! Throughput of one full MPM step, and a STREAM-like triad to compare it with.
 //!
 //! ```text
-//! cargo bench --bench mpm_step                  # both groups
+//! cargo bench --bench mpm_step                  # every group
 //! cargo bench --bench mpm_step -- mpm_step/serial
-//! cargo bench --bench mpm_step -- memory_bandwidth
+//! cargo bench --bench mpm_step -- mpm_step_2d
+//! cargo bench --bench mpm_step -- mpm_step_3d
+//! cargo bench --bench mpm_step -- 'mpm_step_2d/bspline2/.*/1000000|memory_bandwidth'
+//! cargo bench --bench mpm_step -- --test mpm_step_2d   # each bench once (smoke test)
 //! ```
 //!
 //! * `mpm_step/{serial,parallel}/N`: one `TimeStepper::step` of the vibrating bar
@@ -19,17 +22,36 @@
 //!   (`scenarios/mms_bar.toml`, SPEC §6.5: neo-Hookean, per-particle body force, 3
 //!   particles per cell) with `N` particles, for plain MPM, CPDI, TLS and IMLS with the
 //!   gradient and the adjoint strain (`method.strain`): the cost of the IMLS step.
+//! * `mpm_step_2d/{basis}/t{threads}/N`: one `TensorTimeStepper::step` of the 2D (plane
+//!   strain) core on the built-in `axis_aligned_mms` scenario (neo-Hookean, 4 particles per
+//!   cell, `dt = 1e-7`, lumped mass) on `n x n` cells, `n = 50, 158, 500`, i.e. `N = 4 n^2`
+//!   ≈ 1e4, 1e5, 1e6 particles. `basis` is `linear`, `bspline2`, `bspline3` (`method.basis =
+//!   "bspline"`, `method.order = 2 | 3`) or `gimp`; `threads` is 1 and
+//!   `available_parallelism()`. One iteration is exactly one call of
+//!   `sim.stepper.step(&mut sim.particles, TensorBody::PerParticle(&body), dt, step, t)`:
+//!   the per-particle body force `body` is the problem's `b(X_p, 0)`, computed once when
+//!   the simulation is built (its transcendental evaluation is not part of the step cost).
+//!   Each simulation is built once per (basis, size), lazily, so filtered-out sizes cost
+//!   nothing, and keeps stepping across the thread counts. Throughput in particle-steps per
+//!   second ("elements"); sizes from 1e6 use 10 flat samples.
+//! * `mpm_step_3d/{basis}/t{threads}/N`: the same in 3D (`problem.dim = 3`, 8 particles per
+//!   cell) on `n^3` cells, `n = 11, 23, 50`, i.e. `N = 8 n^3` ≈ 1e4, 1e5, 1e6.
 //! * `memory_bandwidth/triad_{serial,parallel}`: `a[i] = b[i] + s c[i]` over three arrays
 //!   of 2^24 `f64` (384 MiB), counted as `3 * 8` bytes per element (STREAM convention: no
 //!   write-allocate traffic).
 //!
 //! See `perf/README.md` for the bytes moved per particle-step and the comparison.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use criterion::{
+    criterion_group, criterion_main, BenchmarkId, Criterion, SamplingMode, Throughput,
+};
 use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Duration;
 use tlsmpm::app::build::build_simulation;
+use tlsmpm::app::tensor_run::build_tensor_simulation;
+use tlsmpm::mapping::tensor_direct::TensorBody;
+use tlsmpm::physics::tensor::{TensorBodySource, TensorSimulation};
 use tlsmpm::physics::{Body, Simulation};
 use tlsmpm::problems::{Problem, ProblemBody};
 
@@ -211,6 +233,126 @@ fn mms_step(c: &mut Criterion) {
     group.finish();
 }
 
+/// A 2D / 3D simulation of the built-in `axis_aligned_mms` scenario with its body force at
+/// `t = 0` (per particle, storage order at build time).
+struct TensorBench<const D: usize> {
+    sim: TensorSimulation<D>,
+    body: [Vec<f64>; D],
+}
+
+impl<const D: usize> TensorBench<D> {
+    fn new(cells: usize, per_cell: usize, basis: &[String]) -> Self {
+        let builtin =
+            tlsmpm::app::builtin::find("axis_aligned_mms").expect("built-in axis_aligned_mms");
+        let mut overrides = vec![
+            format!("problem.dim={D}"),
+            format!("grid.cells={cells}"),
+            format!("particles.per_cell={per_cell}"),
+            "time.dt=1.0e-7".to_string(),
+        ];
+        overrides.extend_from_slice(basis);
+        let scenario = tlsmpm::config::from_str(builtin.toml, "bench", &overrides)
+            .unwrap_or_else(|e| panic!("bench scenario: {e}"));
+        let (problem, sim) = build_tensor_simulation::<D>(&scenario, false)
+            .unwrap_or_else(|e| panic!("bench build ({D}D): {e}"));
+        assert_eq!(sim.particles.len(), per_cell * cells.pow(D as u32));
+        let mut body: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; sim.particles.len()]);
+        problem.at_particles(&sim.particles.x0, 0.0, &mut body);
+        Self { sim, body }
+    }
+
+    /// One time step (only `TensorTimeStepper::step`); panics with the solver's message.
+    fn step(&mut self) -> usize {
+        let step = self.sim.steps_done + 1;
+        let dt = self.sim.dt;
+        let time = step as f64 * dt;
+        self.sim
+            .stepper
+            .step(
+                &mut self.sim.particles,
+                TensorBody::PerParticle(&self.body),
+                dt,
+                step,
+                time,
+            )
+            .unwrap_or_else(|e| panic!("{D}D step {step} failed: {e}"));
+        self.sim.steps_done = step;
+        self.sim.time = time;
+        step
+    }
+}
+
+/// The bases of the 2D / 3D groups: id and `method` overrides.
+fn tensor_bases() -> [(&'static str, Vec<String>); 4] {
+    let set = |basis: &str, order: Option<usize>| {
+        let mut v = vec![format!("method.basis=\"{basis}\"")];
+        v.extend(order.map(|p| format!("method.order={p}")));
+        v
+    };
+    [
+        ("linear", set("linear", None)),
+        ("bspline2", set("bspline", Some(2))),
+        ("bspline3", set("bspline", Some(3))),
+        ("gimp", set("gimp", None)),
+    ]
+}
+
+/// `{name}/{basis}/t{threads}/N` for `N = per_cell * n^D`, `n` in `cells`.
+fn tensor_group<const D: usize>(c: &mut Criterion, name: &str, per_cell: usize, cells: [usize; 3]) {
+    let mut group = c.benchmark_group(name);
+    let mut thread_counts = vec![1, parallel_threads()];
+    thread_counts.dedup();
+    let pools: Vec<(usize, rayon::ThreadPool)> =
+        thread_counts.into_iter().map(|t| (t, pool(t))).collect();
+    let (_, widest) = pools.last().expect("at least one pool");
+    for n in cells {
+        let particles = per_cell * n.pow(D as u32);
+        if particles >= 1_000_000 {
+            group
+                .sampling_mode(SamplingMode::Flat)
+                .sample_size(10)
+                .warm_up_time(Duration::from_millis(500))
+                .measurement_time(Duration::from_secs(4));
+        } else if particles >= 100_000 {
+            group
+                .sampling_mode(SamplingMode::Flat)
+                .sample_size(10)
+                .warm_up_time(Duration::from_millis(500))
+                .measurement_time(Duration::from_secs(2));
+        } else {
+            group
+                .sampling_mode(SamplingMode::Auto)
+                .sample_size(20)
+                .warm_up_time(Duration::from_millis(300))
+                .measurement_time(Duration::from_secs(1));
+        }
+        group.throughput(Throughput::Elements(particles as u64));
+        for (basis, overrides) in tensor_bases() {
+            // Built on first use (so a filter that skips it costs nothing), first-touched
+            // in the widest pool, then stepped on every thread count.
+            let mut slot: Option<TensorBench<D>> = None;
+            for (threads, pool) in &pools {
+                let id = BenchmarkId::new(format!("{basis}/t{threads}"), particles);
+                group.bench_function(id, |b| {
+                    let bench = slot.get_or_insert_with(|| {
+                        widest.install(|| TensorBench::new(n, per_cell, &overrides))
+                    });
+                    pool.install(|| b.iter(|| black_box(bench.step())));
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
+fn mpm_step_2d(c: &mut Criterion) {
+    tensor_group::<2>(c, "mpm_step_2d", 4, [50, 158, 500]);
+}
+
+fn mpm_step_3d(c: &mut Criterion) {
+    tensor_group::<3>(c, "mpm_step_3d", 8, [11, 23, 50]);
+}
+
 const TRIAD_LEN: usize = 1 << 24;
 const TRIAD_CHUNK: usize = 1 << 16;
 
@@ -259,7 +401,9 @@ fn memory_bandwidth(c: &mut Criterion) {
             })
         });
     });
-    assert_eq!(a[TRIAD_LEN / 2], 7.0);
+    // Still zero when a filter skipped both triads.
+    let written = a[TRIAD_LEN / 2];
+    assert!(written == 7.0 || written == 0.0, "triad wrote {written}");
     group.finish();
 }
 
@@ -268,6 +412,8 @@ criterion_group!(
     mpm_step,
     two_phase_step,
     mms_step,
+    mpm_step_2d,
+    mpm_step_3d,
     memory_bandwidth
 );
 criterion_main!(benches);

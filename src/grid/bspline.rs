@@ -8,7 +8,7 @@
 //! so Dirichlet conditions act on those two DOFs. Order 1 is the linear hat basis.
 
 use super::{Basis, Grid, Shape, MAX_SUPPORT};
-use crate::numerics::bspline::{open_uniform, MAX_DEGREE};
+use crate::numerics::bspline::{open_uniform, open_uniform_fixed, MAX_DEGREE};
 
 /// Highest B-spline order a [`BSplineBasis`] accepts (`p + 1 <= MAX_SUPPORT`).
 pub const MAX_ORDER: usize = if MAX_SUPPORT - 1 < MAX_DEGREE {
@@ -56,16 +56,28 @@ impl Basis for BSplineBasis {
         self.order + 1
     }
 
-    #[inline]
+    #[inline(always)]
     fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {
         let u = (x - self.grid.origin) * self.grid.inv_h;
         let p = self.order;
-        open_uniform(p, self.grid.cells, cell, u, &mut shape.phi, &mut shape.dphi);
+        let (spans, phi, dphi) = (self.grid.cells, &mut shape.phi, &mut shape.dphi);
+        // Orders 1-3 unrolled (bitwise the same values as the general evaluation).
+        match p {
+            1 => open_uniform_fixed::<1>(spans, cell, u, phi, dphi),
+            2 => open_uniform_fixed::<2>(spans, cell, u, phi, dphi),
+            3 => open_uniform_fixed::<3>(spans, cell, u, phi, dphi),
+            _ => open_uniform(p, spans, cell, u, phi, dphi),
+        }
         for d in &mut shape.dphi[..=p] {
             *d *= self.grid.inv_h;
         }
         shape.first = cell;
         shape.len = p + 1;
+    }
+
+    #[inline(always)]
+    fn eval_particle(&self, cell: usize, x: f64, _half_length: f64, shape: &mut Shape) {
+        self.eval(cell, x, shape);
     }
 }
 

@@ -34,7 +34,7 @@ impl Basis for LinearBasis {
         2
     }
 
-    #[inline]
+    #[inline(always)]
     fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {
         let xi = (x - self.grid.cell_left(cell)) * self.grid.inv_h;
         shape.first = cell;
@@ -43,6 +43,11 @@ impl Basis for LinearBasis {
         shape.phi[1] = xi;
         shape.dphi[0] = -self.grid.inv_h;
         shape.dphi[1] = self.grid.inv_h;
+    }
+
+    #[inline(always)]
+    fn eval_particle(&self, cell: usize, x: f64, _half_length: f64, shape: &mut Shape) {
+        self.eval(cell, x, shape);
     }
 }
 

@@ -38,6 +38,55 @@ fn knot(k: usize, degree: usize, spans: usize) -> f64 {
     (k.saturating_sub(degree)).min(spans) as f64
 }
 
+/// [`open_uniform`] for a degree `P` known at compile time: on interior spans the same
+/// operations in the same order (so bitwise the same values), unrolled and without the
+/// runtime-length copies; other spans take [`open_uniform`] itself.
+///
+/// ```
+/// use tlsmpm::numerics::bspline::{open_uniform, open_uniform_fixed};
+/// let (mut n, mut dn, mut m, mut dm) = ([0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]);
+/// open_uniform(2, 8, 3, 3.3, &mut n, &mut dn);
+/// open_uniform_fixed::<2>(8, 3, 3.3, &mut m, &mut dm);
+/// assert_eq!((n, dn), (m, dm));
+/// ```
+#[inline(always)]
+pub fn open_uniform_fixed<const P: usize>(
+    spans: usize,
+    span: usize,
+    u: f64,
+    values: &mut [f64],
+    derivatives: &mut [f64],
+) {
+    if !(P >= 1 && P <= MAX_DEGREE && span + 1 >= P && span + P <= spans) {
+        return open_uniform(P, spans, span, u, values, derivatives);
+    }
+    let values = &mut values[..=P];
+    let derivatives = &mut derivatives[..=P];
+    let mut lower = [0.0; MAX_DEGREE + 1];
+    let t = u - span as f64;
+    values[0] = 1.0;
+    for j in 1..=P {
+        if j == P {
+            for r in 0..P {
+                lower[r] = values[r];
+            }
+        }
+        let inv_j = INVERSE[j];
+        let mut saved = 0.0;
+        for r in 0..j {
+            let temp = values[r] * inv_j;
+            values[r] = saved + (r as f64 + 1.0 - t) * temp;
+            saved = (t + (j - r) as f64 - 1.0) * temp;
+        }
+        values[j] = saved;
+    }
+    for k in 0..=P {
+        let below = if k >= 1 { lower[k - 1] } else { 0.0 };
+        let here = if k < P { lower[k] } else { 0.0 };
+        derivatives[k] = below - here;
+    }
+}
+
 /// Values and `u`-derivatives of the `degree + 1` non-zero B-splines at parameter `u` of
 /// span `span` (`span <= u <= span + 1`; the right end `u = spans` belongs to the last
 /// span). `values[k]`, `derivatives[k]` belong to function `span + k`, `k = 0..=degree`.
@@ -152,6 +201,28 @@ const INVERSE: [f64; MAX_DEGREE + 1] = {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn fixed_orders_give_the_bits_of_the_general_evaluation() {
+        fn check<const P: usize>() {
+            for spans in [P, P + 1, 2 * P + 3, 17] {
+                for step in 0..=200 {
+                    let u = spans as f64 * step as f64 / 200.0;
+                    let span = (u as usize).min(spans - 1);
+                    let (mut n, mut dn, mut m, mut dm) = ([0.0; 16], [0.0; 16], [0.0; 16], [0.0; 16]);
+                    open_uniform(P, spans, span, u, &mut n, &mut dn);
+                    open_uniform_fixed::<P>(spans, span, u, &mut m, &mut dm);
+                    let bits = |a: &[f64]| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&n[..=P]), bits(&m[..=P]), "P {P} spans {spans} u {u}");
+                    assert_eq!(bits(&dn[..=P]), bits(&dm[..=P]), "P {P} spans {spans} u {u}");
+                }
+            }
+        }
+        check::<1>();
+        check::<2>();
+        check::<3>();
+    }
+
     use super::*;
     use proptest::prelude::*;
 
