@@ -272,3 +272,70 @@ fn a_run_writes_vtu_snapshots_that_read_back_and_a_pvd_listing_them() {
     let total: f64 = vtu.arrays[5].2.iter().sum();
     assert!((total - 1.0).abs() < 1e-12, "total mass {total}");
 }
+
+#[test]
+fn the_generic_core_at_d_1_equals_the_1d_core() {
+    // The same physics through the dimension-generic code with D = 1: the vibrating bar
+    // with linear hats and quadratic B-splines, MUSL and USL.
+    for sets in [
+        &["grid.cells=20", "particles.per_cell=3"][..],
+        &[
+            "grid.cells=20",
+            "particles.per_cell=3",
+            "method.basis=\"bspline\"",
+        ],
+        &[
+            "grid.cells=20",
+            "particles.per_cell=3",
+            "method.scheme=\"usl\"",
+        ],
+    ] {
+        let one = run_1d("vibrating_bar", sets);
+        let (_, generic) = run_nd::<1>("vibrating_bar", sets, 2);
+        let (du, ds, _) = cross_dimension_difference(&one, &generic.particles);
+        assert!(du < 1e-12 && ds < 1e-12, "{sets:?}: {du:e} {ds:e}");
+    }
+}
+
+#[test]
+fn automatic_time_steps_follow_the_cfl_number_and_agree_with_fixed_steps() {
+    let fixed = ["grid.cells=16"];
+    let (_, reference) = run_nd::<2>("axis_aligned_mms", &fixed, 2);
+    let auto = ["grid.cells=16", "time.dt=\"auto\"", "time.cfl=0.2"];
+    let (_, sim) = run_nd::<2>("axis_aligned_mms", &auto, 2);
+    assert!(
+        (sim.time - 0.02).abs() < 1e-15,
+        "ends at time.end: {}",
+        sim.time
+    );
+    // About cfl * limit per step: far fewer steps than the fixed 1e-5 s, more than 1 / limit.
+    assert!(
+        sim.steps_done > 20 && sim.steps_done < 2000,
+        "{} steps",
+        sim.steps_done
+    );
+    let (_, looser) = run_nd::<2>(
+        "axis_aligned_mms",
+        &["grid.cells=16", "time.dt=\"auto\"", "time.cfl=0.4"],
+        2,
+    );
+    let ratio = looser.steps_done as f64 / sim.steps_done as f64;
+    assert!(
+        (ratio - 0.5).abs() < 0.05,
+        "doubling the CFL number halves the steps: {ratio}"
+    );
+    // Same answer to within the time-discretisation error.
+    let diff = (0..sim.particles.len())
+        .map(|k| {
+            let id = sim.particles.id[k];
+            let j = reference
+                .particles
+                .id
+                .iter()
+                .position(|&i| i == id)
+                .unwrap_or(0);
+            (sim.particles.u[0][k] - reference.particles.u[0][j]).abs()
+        })
+        .fold(0.0f64, f64::max);
+    assert!(diff < 2e-3, "largest u_x difference {diff:e}");
+}

@@ -40,6 +40,14 @@ pub fn build_simulation(
     force: bool,
 ) -> Result<(Box<dyn Problem>, Simulation)> {
     scenario.validate()?;
+    if scenario.problem.dim != 1 {
+        return Err(Error::invalid(
+            "problem.dim",
+            scenario.problem.dim,
+            "this is the 1D simulation; 2D / 3D scenarios are built by \
+             app::tensor_run::build_tensor_simulation",
+        ));
+    }
     let problem = problems::build(scenario)?;
     let grid = Grid::new(problem.length(), scenario.grid.cells.along_x());
     let two_phase = match scenario.material.model {

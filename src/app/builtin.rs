@@ -67,7 +67,11 @@ mod tests {
         for b in BUILTIN {
             let s = crate::config::from_str(b.toml, b.name, &[]).unwrap();
             s.validate().unwrap();
-            crate::app::build_simulation(&s, false).unwrap();
+            match s.problem.dim {
+                1 => drop(crate::app::build_simulation(&s, false).unwrap()),
+                2 => drop(crate::app::tensor_run::build_tensor_simulation::<2>(&s, false).unwrap()),
+                _ => drop(crate::app::tensor_run::build_tensor_simulation::<3>(&s, false).unwrap()),
+            }
         }
     }
 }

@@ -179,9 +179,9 @@ struct Progress {
 impl Progress {
     fn new(quiet: bool) -> Self {
         let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
-        if let Ok(style) =
-            ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} steps, {per_sec}, eta {eta}")
-        {
+        if let Ok(style) = ProgressStyle::with_template(
+            "{prefix} [{bar:40}] {pos}/{len} steps, {per_sec}, eta {eta}",
+        ) {
             bar.set_style(style.progress_chars("=> "));
         }
         Self {

@@ -209,12 +209,17 @@ mod tests {
                 for step in 0..=200 {
                     let u = spans as f64 * step as f64 / 200.0;
                     let span = (u as usize).min(spans - 1);
-                    let (mut n, mut dn, mut m, mut dm) = ([0.0; 16], [0.0; 16], [0.0; 16], [0.0; 16]);
+                    let (mut n, mut dn, mut m, mut dm) =
+                        ([0.0; 16], [0.0; 16], [0.0; 16], [0.0; 16]);
                     open_uniform(P, spans, span, u, &mut n, &mut dn);
                     open_uniform_fixed::<P>(spans, span, u, &mut m, &mut dm);
                     let bits = |a: &[f64]| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&n[..=P]), bits(&m[..=P]), "P {P} spans {spans} u {u}");
-                    assert_eq!(bits(&dn[..=P]), bits(&dm[..=P]), "P {P} spans {spans} u {u}");
+                    assert_eq!(
+                        bits(&dn[..=P]),
+                        bits(&dm[..=P]),
+                        "P {P} spans {spans} u {u}"
+                    );
                 }
             }
         }
