@@ -50,6 +50,7 @@ fn knot(k: usize, degree: usize, spans: usize) -> f64 {
 /// assert_eq!((n, dn), (m, dm));
 /// ```
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // `r` and `j` enter the formulas, as in `open_uniform`
 pub fn open_uniform_fixed<const P: usize>(
     spans: usize,
     span: usize,
@@ -67,9 +68,7 @@ pub fn open_uniform_fixed<const P: usize>(
     values[0] = 1.0;
     for j in 1..=P {
         if j == P {
-            for r in 0..P {
-                lower[r] = values[r];
-            }
+            lower[..P].copy_from_slice(&values[..P]);
         }
         let inv_j = INVERSE[j];
         let mut saved = 0.0;
