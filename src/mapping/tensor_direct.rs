@@ -66,6 +66,20 @@ pub fn half_lengths<const D: usize>(
     }
 }
 
+/// The basis functions at particle `p` (its position, cell and domain).
+#[inline(always)]
+pub fn eval_at<const D: usize, B: Basis>(
+    basis: &TensorBasis<D, B>,
+    particles: &TensorParticles<D>,
+    half_length0: &Option<[f64; D]>,
+    p: usize,
+    shape: &mut TensorShape<D>,
+) {
+    let x = particles.position(p);
+    let cell = basis.grid.axis_cells(x);
+    basis.eval_particle(cell, x, half_lengths(particles, half_length0, p), shape);
+}
+
 /// Scatter buffers of the direct mapping.
 #[derive(Clone, Debug)]
 pub struct TensorDirectMapping<const D: usize> {
@@ -104,9 +118,7 @@ impl<const D: usize> TensorDirectMapping<D> {
             |range: Range<usize>, lo, local| {
                 let mut shape = TensorShape::<D>::default();
                 for k in range {
-                    let x = p.position(k);
-                    let cell = basis.grid.axis_cells(x);
-                    basis.eval_particle(cell, x, half_lengths(p, &half0, k), &mut shape);
+                    eval_at(basis, p, &half0, k, &mut shape);
                     let (m, vol) = (p.mass[k], p.volume[k]);
                     let b = match body {
                         TensorBody::Uniform(b) => b,
@@ -160,9 +172,7 @@ impl<const D: usize> TensorDirectMapping<D> {
             |range: Range<usize>, lo, local| {
                 let mut shape = TensorShape::<D>::default();
                 for k in range {
-                    let x = p.position(k);
-                    let cell = basis.grid.axis_cells(x);
-                    basis.eval_particle(cell, x, half_lengths(p, &half0, k), &mut shape);
+                    eval_at(basis, p, &half0, k, &mut shape);
                     let mv: [f64; D] = std::array::from_fn(|a| p.mass[k] * p.v[a][k]);
                     shape.for_each_node(&strides, |node, phi, _| {
                         let out = &mut local[node - lo];

@@ -3,15 +3,15 @@
 //! then the `_exact` columns of `u_*`, `v_*`, `stress_*` that are known. One particle per
 //! line in original (id) order; numbers in Rust's shortest round-trip `{:e}` form. Rows
 //! are formatted in parallel chunks and written in order through a buffered writer into a
-//! temporary file that is renamed into place.
+//! temporary file that is renamed into place ([`write_atomic_with`]).
 
-use crate::error::{Error, Result};
+use super::atomic::write_atomic_with;
+use crate::error::Result;
 use crate::particles::tensor::{written_stress_components, STRESS_COMPONENTS};
 use crate::particles::TensorParticles;
 use crate::problems::Field;
 use rayon::prelude::*;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::Path;
 
 /// Rows per formatting chunk.
@@ -110,22 +110,13 @@ pub fn write_tensor_particles<const D: usize>(
             out
         })
         .collect();
-    let tmp = path.with_extension("csv.tmp");
-    let result = (|| -> std::io::Result<()> {
-        let file = std::fs::File::create(&tmp)?;
-        let mut writer = std::io::BufWriter::with_capacity(1 << 20, file);
+    write_atomic_with(path, |writer| {
         writer.write_all(header(D, exact).as_bytes())?;
         writer.write_all(b"\n")?;
         for chunk in &chunks {
             writer.write_all(chunk.as_bytes())?;
         }
-        let file = writer.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::write(path, e)
+        Ok(())
     })
 }
 
