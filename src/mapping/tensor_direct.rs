@@ -187,6 +187,9 @@ impl<const D: usize> TensorDirectMapping<D> {
 
     /// MUSL steps 3–4 fused: `v_p += dt sum_I phi_I a_I`, then `p_I = sum_p m_p v_p phi_I`
     /// with the updated velocities, in one pass (one shape evaluation per particle).
+    /// Returns the particle momentum `sum_p m_p v_p` (components `0..D`) and
+    /// `sum_p m_p |v_p|` (last entry) of the updated velocities, summed per task and then
+    /// over the tasks in order (deterministic).
     pub fn update_velocities_and_map_momentum<B: Basis>(
         &mut self,
         basis: &TensorBasis<D, B>,
@@ -194,7 +197,7 @@ impl<const D: usize> TensorDirectMapping<D> {
         cell_start: &[usize],
         dt: f64,
         fields: &mut TensorGridFields<D>,
-    ) {
+    ) -> [f64; 4] {
         let strides = *basis.strides();
         let half0 = self.half_length0;
         // Each task owns the velocity chunks of its particles.
@@ -212,13 +215,17 @@ impl<const D: usize> TensorDirectMapping<D> {
             ..
         } = particles;
         let (x, mass, deformation_gradient) = (&*x, &*mass, &*deformation_gradient);
-        let states = split_components(v, &ranges);
+        let mut sums = vec![[0.0; 4]; ranges.len()];
+        let states: Vec<_> = split_components(v, &ranges)
+            .into_iter()
+            .zip(sums.iter_mut())
+            .collect();
         let acceleration = &fields.acceleration;
         self.momentum.scatter_with(
             cell_start,
             states,
             &mut fields.momentum,
-            |v: [&mut [f64]; D], range: Range<usize>, lo, local| {
+            |(v, sum): ([&mut [f64]; D], &mut [f64; 4]), range: Range<usize>, lo, local| {
                 let mut shape = TensorShape::<D>::default();
                 let start = range.start;
                 for k in range {
@@ -233,11 +240,15 @@ impl<const D: usize> TensorDirectMapping<D> {
                     basis.eval_particle(cell, position, half, &mut shape);
                     let dv = shape.interpolate(&strides, acceleration);
                     let mut mv = [0.0; D];
+                    let mut speed2 = 0.0;
                     for a in 0..D {
                         let velocity = &mut v[a][k - start];
                         *velocity += dt * dv[a];
                         mv[a] = mass[k] * *velocity;
+                        speed2 += *velocity * *velocity;
+                        sum[a] += mv[a];
                     }
+                    sum[3] += mass[k] * speed2.sqrt();
                     shape.for_each_node(&strides, |node, phi, _| {
                         let out = &mut local[node - lo];
                         for a in 0..D {
@@ -247,6 +258,13 @@ impl<const D: usize> TensorDirectMapping<D> {
                 }
             },
         );
+        let mut total = [0.0; 4];
+        for s in &sums {
+            for (t, s) in total.iter_mut().zip(s) {
+                *t += s;
+            }
+        }
+        total
     }
 }
 

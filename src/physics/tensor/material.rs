@@ -48,6 +48,21 @@ pub trait TensorLaw: Copy + Send + Sync {
     ) -> f64;
     /// P-wave modulus `lambda + 2 mu` (the stability limit's wave speed).
     fn wave_modulus(&self) -> f64;
+
+    /// [`TensorLaw::update`], then the particle's stored energy
+    /// ([`TensorLaw::stored_energy`] at the new state), sharing what both need.
+    #[inline(always)]
+    fn update_with_energy<const D: usize>(
+        &self,
+        stress: &mut [f64; 6],
+        velocity_gradient_increment: &[[f64; D]; D],
+        deformation_gradient: &[[f64; D]; D],
+        jacobian: f64,
+        volume0: f64,
+    ) -> f64 {
+        self.update(stress, velocity_gradient_increment, deformation_gradient, jacobian);
+        self.stored_energy(stress, deformation_gradient, jacobian * volume0, volume0)
+    }
 }
 
 /// Small-strain linear elasticity.
@@ -150,6 +165,32 @@ impl TensorLaw for NeoHookeanTensor {
         for a in 3..6 {
             stress[a] = mu_j * b[a];
         }
+    }
+
+    /// One `B` and one `ln J` for the stress and the energy.
+    #[inline(always)]
+    fn update_with_energy<const D: usize>(
+        &self,
+        stress: &mut [f64; 6],
+        _dl: &[[f64; D]; D],
+        f: &[[f64; D]; D],
+        j: f64,
+        volume0: f64,
+    ) -> f64 {
+        let b = left_cauchy_green(f);
+        let inv_j = 1.0 / j;
+        let ln_j = j.ln();
+        let pressure = self.lambda * ln_j * inv_j;
+        let mu_j = self.mu * inv_j;
+        for a in 0..3 {
+            stress[a] = pressure + mu_j * (b[a] - 1.0);
+        }
+        for a in 3..6 {
+            stress[a] = mu_j * b[a];
+        }
+        let w = 0.5 * self.mu * (b[0] + b[1] + b[2] - 3.0) - self.mu * ln_j
+            + 0.5 * self.lambda * ln_j * ln_j;
+        volume0 * w
     }
 
     fn stored_energy<const D: usize>(

@@ -216,7 +216,7 @@ impl<const D: usize> TensorSimulation<D> {
             if let Some(e) = report.momentum_error {
                 self.max_momentum_error = self.max_momentum_error.max(e);
             }
-            let (kinetic_energy, strain_energy) = self.stepper.energies(&self.particles);
+            let (kinetic_energy, strain_energy) = report.energies;
             self.history.push(HistoryRow {
                 step,
                 time: end_time,

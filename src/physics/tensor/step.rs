@@ -35,6 +35,8 @@ pub struct TensorStepReport {
     /// `None` when all particles are at rest.
     pub momentum_error: Option<f64>,
     pub crossings: usize,
+    /// Kinetic energy `sum_p m_p |v_p|^2 / 2` and stored energy after the step.
+    pub energies: (f64, f64),
 }
 
 /// The 2D / 3D stepper, generic over the dimension and the 1D basis of each axis.
@@ -109,15 +111,16 @@ impl<const D: usize, B: Basis> TensorStepper<D, B> {
         divide_by_mass(&fields.mass, &fields.force, &mut fields.acceleration);
         self.constraints.apply(&mut fields.acceleration);
         // 3. Grid velocities.
+        let mut musl_momentum = None;
         match self.scheme {
             Scheme::Musl => {
-                self.mapping.update_velocities_and_map_momentum(
+                musl_momentum = Some(self.mapping.update_velocities_and_map_momentum(
                     &self.basis,
                     particles,
                     &self.cell_start,
                     dt,
                     fields,
-                );
+                ));
                 divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity);
             }
             Scheme::Usl => {
@@ -130,8 +133,8 @@ impl<const D: usize, B: Basis> TensorStepper<D, B> {
             }
         }
         self.constraints.apply(&mut fields.velocity);
-        if self.scheme == Scheme::Musl {
-            momentum_error = particle_momentum_error(particles, &fields.momentum);
+        if let Some([mx, my, mz, scale]) = musl_momentum {
+            momentum_error = momentum_error_of(&fields.momentum, [mx, my, mz], scale);
         }
         // 4.-5. Kinematics and stress.
         let usl_acceleration = (self.scheme == Scheme::Usl).then_some(&fields.acceleration[..]);
@@ -179,6 +182,7 @@ impl<const D: usize, B: Basis> TensorStepper<D, B> {
             mass_error,
             momentum_error,
             crossings: outcome.crossings,
+            energies: outcome.energies,
         })
     }
 
@@ -225,6 +229,15 @@ fn particle_momentum_error<const D: usize>(
     grid_momentum: &[[f64; D]],
 ) -> Option<f64> {
     let (particle, scale) = particle_momentum(particles);
+    momentum_error_of(grid_momentum, particle, scale)
+}
+
+/// `max_c |sum_I p_I,c - particle_c| / scale` (`None` when `scale` is 0).
+fn momentum_error_of<const D: usize>(
+    grid_momentum: &[[f64; D]],
+    particle: [f64; 3],
+    scale: f64,
+) -> Option<f64> {
     let mut error: f64 = 0.0;
     for c in 0..D {
         let grid: f64 = grid_momentum.iter().map(|g| g[c]).sum();
@@ -254,6 +267,8 @@ struct Outcome {
     /// First failing particle (lowest index) and the failing field ("volume", "left" for
     /// a particle outside the grid, or the non-finite field's name).
     failure: Option<(usize, &'static str)>,
+    /// Kinetic and stored energy after the step (summed per chunk, then in chunk order).
+    energies: (f64, f64),
 }
 
 /// `det F` of a `D x D` matrix.
@@ -373,12 +388,14 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw>(
     let mass = std::mem::take(&mut particles.mass);
     let volume0 = std::mem::take(&mut particles.volume0);
     let chunks = chunks_of(particles, &ranges);
-    let results: Vec<(usize, Option<(usize, &'static str)>)> = chunks
+    #[allow(clippy::type_complexity)]
+    let results: Vec<(usize, Option<(usize, &'static str)>, f64, f64)> = chunks
         .into_par_iter()
         .map(|c| {
             let mut shape = TensorShape::<D>::default();
             let mut crossings = 0;
             let mut failure = None;
+            let (mut kinetic, mut stored) = (0.0, 0.0);
             for i in 0..c.volume.len() {
                 let k = c.start + i;
                 let x: [f64; D] = std::array::from_fn(|a| c.x[a][i]);
@@ -423,7 +440,12 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw>(
                 c.volume[i] = volume;
                 c.density[i] = mass[k] / volume;
                 let mut stress: [f64; 6] = std::array::from_fn(|s| c.stress[s][i]);
-                law.update(&mut stress, &dl, &f, j);
+                stored += law.update_with_energy(&mut stress, &dl, &f, j, volume0[k]);
+                let mut speed2 = 0.0;
+                for d in 0..D {
+                    speed2 += c.v[d][i] * c.v[d][i];
+                }
+                kinetic += 0.5 * mass[k] * speed2;
                 let mut finite = true;
                 for (s, value) in stress.iter().enumerate() {
                     c.stress[s][i] = *value;
@@ -449,16 +471,22 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw>(
                     (Some(b), _) => failure = failure.or(Some((k, b))),
                 }
             }
-            (crossings, failure)
+            (crossings, failure, kinetic, stored)
         })
         .collect();
     particles.mass = mass;
     particles.volume0 = volume0;
-    let mut crossings = 0;
-    let mut failure: Option<(usize, &'static str)> = None;
-    for (c, f) in results {
-        crossings += c;
-        failure = failure.or(f);
+    let mut outcome = Outcome {
+        crossings: 0,
+        failure: None,
+        energies: (0.0, 0.0),
+    };
+    // In chunk order: deterministic for any thread count.
+    for (c, f, kinetic, stored) in results {
+        outcome.crossings += c;
+        outcome.failure = outcome.failure.or(f);
+        outcome.energies.0 += kinetic;
+        outcome.energies.1 += stored;
     }
-    Outcome { crossings, failure }
+    outcome
 }
