@@ -60,7 +60,12 @@ pub trait TensorLaw: Copy + Send + Sync {
         jacobian: f64,
         volume0: f64,
     ) -> f64 {
-        self.update(stress, velocity_gradient_increment, deformation_gradient, jacobian);
+        self.update(
+            stress,
+            velocity_gradient_increment,
+            deformation_gradient,
+            jacobian,
+        );
         self.stored_energy(stress, deformation_gradient, jacobian * volume0, volume0)
     }
 }
