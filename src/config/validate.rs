@@ -234,7 +234,7 @@ impl Scenario {
             return Err(Error::invalid(
                 "output.vtk",
                 true,
-                "VTK output is not available in this version of tlsmpm",
+                "VTK output is not available in 1D in this version (it is for problem.dim = 2 | 3)",
             ));
         }
         Ok(())

@@ -14,6 +14,7 @@ use crate::grid::Basis;
 use crate::mapping::tensor_direct::TensorBody;
 use crate::particles::TensorParticles;
 use crate::physics::HistoryRow;
+use rayon::prelude::*;
 
 /// Steps between recomputations of an automatic time step.
 pub const AUTO_DT_EVERY: usize = 10;
@@ -133,12 +134,15 @@ impl<const D: usize> TensorSimulation<D> {
     fn auto_dt(&self, cfl: f64, initial_limit: f64, initial_speed: f64) -> f64 {
         let p = &self.particles;
         let modulus = self.stepper.wave_modulus();
+        // A maximum: the same for any order of evaluation, so parallel and deterministic.
         let fastest = (0..p.len())
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|k| {
                 let speed2: f64 = (0..D).map(|a| p.v[a][k] * p.v[a][k]).sum();
                 (modulus / p.density[k]).sqrt() + speed2.sqrt()
             })
-            .fold(0.0, f64::max);
+            .reduce(|| 0.0, f64::max);
         let dt = cfl * initial_limit * initial_speed / fastest.max(initial_speed * 1e-12);
         dt.min(self.end_time - self.time)
     }
