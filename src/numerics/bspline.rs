@@ -63,7 +63,7 @@ pub fn open_uniform_fixed<const P: usize>(
     }
     let values = &mut values[..=P];
     let derivatives = &mut derivatives[..=P];
-    let mut lower = [0.0; MAX_DEGREE + 1];
+    let mut lower = [0.0; P];
     let t = u - span as f64;
     values[0] = 1.0;
     for j in 1..=P {
