@@ -429,13 +429,22 @@ fn bad_mms_input_names_the_key() {
 
 #[test]
 fn unavailable_methods_name_their_key() {
-    // MLS and IMLS are implemented now (SPEC §4.3); VTK output is still documented only.
-    expect_input_error(
+    // MLS, IMLS and VTK output are implemented now: a 1D run with VTK writes the series.
+    let dir = tempdir();
+    let out = dir.path().join("out");
+    let o = run(
         BAR,
-        &[TINY, "output.vtk=true"],
+        &out,
+        &[TINY, "output.vtk=true", "output.snapshots=2"],
         &[],
-        &["`output.vtk`", "true", "not available"],
     );
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    let pvd = std::fs::read_to_string(out.join("particles.pvd")).expect("pvd");
+    assert_eq!(pvd.matches("<DataSet").count(), 3, "{pvd}");
+    let vtu = std::fs::read_to_string(out.join("particles_0002.vtu")).expect("final vtu");
+    let summary = tlsmpm::output::vtu::read_vtu_summary(&vtu).expect("valid VTU");
+    let csv = std::fs::read_to_string(out.join("particles.csv")).expect("csv");
+    assert_eq!(summary.n_points, csv.lines().count() - 1);
     expect_input_error(
         BAR,
         &[TINY, "method.subpoints=4", "method.reconstruction=tls"],

@@ -46,6 +46,13 @@ pub fn run(
     std::fs::create_dir_all(&options.out_dir).map_err(|e| Error::write(&options.out_dir, e))?;
     let n_steps = scenario.n_steps();
     let snapshots = scenario.output.snapshots.min(n_steps);
+    let vtk = scenario.output.vtk;
+    let mut vtk_series: Vec<(f64, String)> = Vec::new();
+    if vtk {
+        let file = "particles_0000.vtu".to_string();
+        write_vtu_1d(&options.out_dir.join(&file), &simulation.particles)?;
+        vtk_series.push((simulation.time(), file));
+    }
     let clock = Instant::now();
     let mut snapshot_error = None;
     let outcome = pool.install(|| {
@@ -57,9 +64,16 @@ pub fn run(
                 // Snapshot k of `snapshots` at step ceil(k n / snapshots), the last one final.
                 if snapshots > 0 && (sim.steps_done * snapshots) % n_steps < snapshots {
                     let k = sim.steps_done * snapshots / n_steps;
-                    let path = options.out_dir.join(format!("snapshot_{k:04}.csv"));
-                    let columns = exact_columns(problem.as_ref(), sim, scenario);
-                    if let Err(e) = write_particles(&path, &sim.particles, &as_refs(&columns)) {
+                    let result = if vtk {
+                        let file = format!("particles_{k:04}.vtu");
+                        vtk_series.push((sim.time(), file.clone()));
+                        write_vtu_1d(&options.out_dir.join(file), &sim.particles)
+                    } else {
+                        let path = options.out_dir.join(format!("snapshot_{k:04}.csv"));
+                        let columns = exact_columns(problem.as_ref(), sim, scenario);
+                        write_particles(&path, &sim.particles, &as_refs(&columns))
+                    };
+                    if let Err(e) = result {
                         snapshot_error = Some(e);
                     }
                 }
@@ -70,6 +84,17 @@ pub fn run(
     let wall_seconds = clock.elapsed().as_secs_f64();
     if let Some(e) = snapshot_error {
         return Err(e);
+    }
+    if vtk {
+        if vtk_series
+            .last()
+            .is_none_or(|(t, _)| *t < simulation.time())
+        {
+            let file = format!("particles_{:04}.vtu", vtk_series.len());
+            write_vtu_1d(&options.out_dir.join(&file), &simulation.particles)?;
+            vtk_series.push((simulation.time(), file));
+        }
+        crate::output::vtu::write_pvd(&options.out_dir.join("particles.pvd"), &vtk_series)?;
     }
     let summary = write_outputs(
         scenario,
@@ -82,6 +107,49 @@ pub fn run(
         outcome.as_ref().err(),
     )?;
     outcome.map(|()| summary)
+}
+
+/// A 1D particle state as a VTU file (points on the x axis; two-phase runs add the liquid
+/// velocity and pore pressure).
+fn write_vtu_1d(path: &Path, p: &Particles) -> Result<()> {
+    use crate::output::vtu::{write_vtu, PointArray};
+    let mut arrays = vec![
+        PointArray {
+            name: "displacement",
+            components: vec![&p.u],
+        },
+        PointArray {
+            name: "velocity",
+            components: vec![&p.v],
+        },
+        PointArray {
+            name: "stress",
+            components: vec![&p.stress],
+        },
+        PointArray {
+            name: "volume",
+            components: vec![&p.volume],
+        },
+        PointArray {
+            name: "density",
+            components: vec![&p.density],
+        },
+        PointArray {
+            name: "mass",
+            components: vec![&p.mass],
+        },
+    ];
+    if let Some(l) = &p.liquid {
+        arrays.push(PointArray {
+            name: "liquid_velocity",
+            components: vec![&l.velocity],
+        });
+        arrays.push(PointArray {
+            name: "pore_pressure",
+            components: vec![&l.pore_pressure],
+        });
+    }
+    write_vtu(path, &[&p.x], &arrays)
 }
 
 /// A rayon pool of `threads` workers (`None`: one per core); 0 is an input error.

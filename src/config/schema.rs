@@ -787,7 +787,7 @@ pub struct OutputConfig {
     /// Intermediate particle snapshots, evenly spread over the run (0 = final state only).
     #[serde(default)]
     pub snapshots: usize,
-    /// VTK output (not available yet).
+    /// VTU particle files and a `.pvd` series (initial state, snapshots, final state).
     #[serde(default)]
     pub vtk: bool,
     /// Write SVG plots.

@@ -230,13 +230,6 @@ impl Scenario {
                 ),
             ));
         }
-        if self.output.vtk {
-            return Err(Error::invalid(
-                "output.vtk",
-                true,
-                "VTK output is not available in 1D in this version (it is for problem.dim = 2 | 3)",
-            ));
-        }
         Ok(())
     }
 }
