@@ -173,24 +173,74 @@ impl<const D: usize> TensorShape<D> {
     }
 
     /// `sum_I phi_I g_I` and the gradient `L_ab = sum_I g_{I,a} d phi_I / d x_b` of a grid
-    /// vector field.
+    /// vector field, sum-factorised: the x sums `sum_i phi_i g_I`, `sum_i dphi_i g_I` of each
+    /// row first, then the rows (`2 D` multiply-adds per node instead of `D + D^2` and the
+    /// products of the shape).
     #[inline]
     pub fn interpolate_with_gradient(
         &self,
         stride: &[usize; D],
         field: &[[f64; D]],
     ) -> ([f64; D], [[f64; D]; D]) {
+        let s = &self.axes;
         let mut value = [0.0; D];
         let mut gradient = [[0.0; D]; D];
-        self.for_each_node(stride, |node, phi, grad| {
-            let g = &field[node];
-            for a in 0..D {
-                value[a] += phi * g[a];
-                for b in 0..D {
-                    gradient[a][b] += g[a] * grad[b];
+        // Row sums along x of the row starting at node `row`.
+        let row_sums = |row: usize| {
+            let (mut r0, mut r1) = ([0.0; D], [0.0; D]);
+            for i in 0..s[0].len {
+                let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
+                let g = &field[row + i];
+                for a in 0..D {
+                    r0[a] += px * g[a];
+                    r1[a] += dx * g[a];
                 }
             }
-        });
+            (r0, r1)
+        };
+        match D {
+            1 => {
+                let (r0, r1) = row_sums(s[0].first);
+                value = r0;
+                for a in 0..D {
+                    gradient[a][0] = r1[a];
+                }
+            }
+            2 => {
+                for j in 0..s[1].len {
+                    let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
+                    let (r0, r1) = row_sums((s[1].first + j) * stride[1] + s[0].first);
+                    for a in 0..D {
+                        value[a] += py * r0[a];
+                        gradient[a][0] += py * r1[a];
+                        gradient[a][1] += dy * r0[a];
+                    }
+                }
+            }
+            _ => {
+                for k in 0..s[2].len {
+                    let (pz, dz) = (s[2].phi[k], s[2].dphi[k]);
+                    let plane = (s[2].first + k) * stride[2];
+                    // Plane sums over y of the row sums: value, d/dx, d/dy.
+                    let (mut q0, mut qx, mut qy) = ([0.0; D], [0.0; D], [0.0; D]);
+                    for j in 0..s[1].len {
+                        let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
+                        let (r0, r1) = row_sums(plane + (s[1].first + j) * stride[1] + s[0].first);
+                        for a in 0..D {
+                            q0[a] += py * r0[a];
+                            qx[a] += py * r1[a];
+                            qy[a] += dy * r0[a];
+                        }
+                    }
+                    for a in 0..D {
+                        value[a] += pz * q0[a];
+                        gradient[a][0] += pz * qx[a];
+                        gradient[a][1] += pz * qy[a];
+                        gradient[a][2] += dz * q0[a];
+                    }
+                }
+            }
+        }
         (value, gradient)
     }
 }
