@@ -114,40 +114,16 @@ pub fn run(
 fn write_vtu_1d(path: &Path, p: &Particles) -> Result<()> {
     use crate::output::vtu::{write_vtu, PointArray};
     let mut arrays = vec![
-        PointArray {
-            name: "displacement",
-            components: vec![&p.u],
-        },
-        PointArray {
-            name: "velocity",
-            components: vec![&p.v],
-        },
-        PointArray {
-            name: "stress",
-            components: vec![&p.stress],
-        },
-        PointArray {
-            name: "volume",
-            components: vec![&p.volume],
-        },
-        PointArray {
-            name: "density",
-            components: vec![&p.density],
-        },
-        PointArray {
-            name: "mass",
-            components: vec![&p.mass],
-        },
+        PointArray::new("displacement", vec![&p.u]),
+        PointArray::new("velocity", vec![&p.v]),
+        PointArray::new("stress", vec![&p.stress]),
+        PointArray::new("volume", vec![&p.volume]),
+        PointArray::new("density", vec![&p.density]),
+        PointArray::new("mass", vec![&p.mass]),
     ];
     if let Some(l) = &p.liquid {
-        arrays.push(PointArray {
-            name: "liquid_velocity",
-            components: vec![&l.velocity],
-        });
-        arrays.push(PointArray {
-            name: "pore_pressure",
-            components: vec![&l.pore_pressure],
-        });
+        arrays.push(PointArray::new("liquid_velocity", vec![&l.velocity]));
+        arrays.push(PointArray::new("pore_pressure", vec![&l.pore_pressure]));
     }
     write_vtu(path, &[&p.x], &arrays)
 }

@@ -361,32 +361,14 @@ fn write_vtu_of<const D: usize>(path: &Path, p: &TensorParticles<D>) -> Result<(
         .iter()
         .map(|&(a, b)| p.stress[stress_index(a, b)].as_slice())
         .collect();
+    // Stress in ParaView's symmetric-tensor order: XX, YY, ZZ, XY, YZ, XZ.
     let arrays = [
-        PointArray {
-            name: "displacement",
-            components: vector(&p.u),
-        },
-        PointArray {
-            name: "velocity",
-            components: vector(&p.v),
-        },
-        // ParaView's symmetric-tensor order: XX, YY, ZZ, XY, YZ, XZ.
-        PointArray {
-            name: "stress",
-            components: stress,
-        },
-        PointArray {
-            name: "volume",
-            components: vec![&p.volume],
-        },
-        PointArray {
-            name: "density",
-            components: vec![&p.density],
-        },
-        PointArray {
-            name: "mass",
-            components: vec![&p.mass],
-        },
+        PointArray::new("displacement", vector(&p.u)),
+        PointArray::new("velocity", vector(&p.v)),
+        PointArray::new("stress", stress),
+        PointArray::new("volume", vec![&p.volume]),
+        PointArray::new("density", vec![&p.density]),
+        PointArray::new("mass", vec![&p.mass]),
     ];
     write_vtu(path, &coordinates, &arrays)
 }

@@ -49,6 +49,13 @@ pub struct PointArray<'a> {
     pub components: Vec<&'a [f64]>,
 }
 
+impl<'a> PointArray<'a> {
+    /// An array named `name` with the given component slices.
+    pub fn new(name: &'a str, components: Vec<&'a [f64]>) -> Self {
+        Self { name, components }
+    }
+}
+
 /// Write `path` (a `.vtu` file) with `n` particles as `VTK_VERTEX` cells.
 ///
 /// * Points: point `i` has coordinates `(x, y, z)` with `x_a = coordinates[a][i]` for
