@@ -89,6 +89,13 @@ pub trait Basis: Sync + Send {
         let _ = quadrature;
     }
 
+    /// `Some(n)` when every evaluation has exactly `n` non-zero functions (`Shape::len`),
+    /// so that particle loops can be compiled for that support size; `None` (the default)
+    /// when it varies (GIMP, CPDI).
+    fn fixed_support(&self) -> Option<usize> {
+        None
+    }
+
     /// The DOFs on the left and right ends of the domain (for Dirichlet conditions).
     fn boundary_dofs(&self) -> (usize, usize) {
         (0, self.num_dofs() - 1)

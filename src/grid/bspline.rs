@@ -79,6 +79,10 @@ impl Basis for BSplineBasis {
     fn eval_particle(&self, cell: usize, x: f64, _half_length: f64, shape: &mut Shape) {
         self.eval(cell, x, shape);
     }
+
+    fn fixed_support(&self) -> Option<usize> {
+        Some(self.order + 1)
+    }
 }
 
 #[cfg(test)]

@@ -49,6 +49,10 @@ impl Basis for LinearBasis {
     fn eval_particle(&self, cell: usize, x: f64, _half_length: f64, shape: &mut Shape) {
         self.eval(cell, x, shape);
     }
+
+    fn fixed_support(&self) -> Option<usize> {
+        Some(2)
+    }
 }
 
 #[cfg(test)]

@@ -16,6 +16,33 @@
 
 use super::{Basis, Grid, Shape};
 
+/// Evaluate `$body` with the const `$n` set to the fixed support of `$basis` (a
+/// [`TensorBasis`]) when it is 2, 3 or 4, else to 0 (run-time support): one dispatch per
+/// pass, then loops compiled for that support size.
+macro_rules! with_fixed_support {
+    ($basis:expr, $n:ident => $body:expr) => {
+        match $basis.fixed_support() {
+            Some(2) => {
+                const $n: usize = 2;
+                $body
+            }
+            Some(3) => {
+                const $n: usize = 3;
+                $body
+            }
+            Some(4) => {
+                const $n: usize = 4;
+                $body
+            }
+            _ => {
+                const $n: usize = 0;
+                $body
+            }
+        }
+    };
+}
+pub(crate) use with_fixed_support;
+
 /// A uniform grid of `cells[a]` cells per axis on `[0, length[a]]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TensorGrid<const D: usize> {
@@ -115,21 +142,32 @@ impl<const D: usize> TensorShape<D> {
     /// lexicographic index for DOF strides `stride` (see [`TensorBasis::strides`]), in
     /// lexicographic order (x fastest).
     #[inline(always)]
-    pub fn for_each_node(&self, stride: &[usize; D], mut visit: impl FnMut(usize, f64, [f64; D])) {
+    pub fn for_each_node(&self, stride: &[usize; D], visit: impl FnMut(usize, f64, [f64; D])) {
+        self.for_each_node_n::<0>(stride, visit)
+    }
+
+    /// [`Self::for_each_node`] for a support of `N` functions per axis known at compile
+    /// time (`N = 0`: the run-time `Shape::len`), so that the loops unroll.
+    #[inline(always)]
+    pub fn for_each_node_n<const N: usize>(
+        &self,
+        stride: &[usize; D],
+        mut visit: impl FnMut(usize, f64, [f64; D]),
+    ) {
         let s = &self.axes;
         match D {
             1 => {
-                for i in 0..s[0].len {
+                for i in 0..support::<N>(&s[0]) {
                     let mut g = [0.0; D];
                     g[0] = s[0].dphi[i];
                     visit(s[0].first + i, s[0].phi[i], g);
                 }
             }
             2 => {
-                for j in 0..s[1].len {
+                for j in 0..support::<N>(&s[1]) {
                     let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
                     let row = (s[1].first + j) * stride[1] + s[0].first;
-                    for i in 0..s[0].len {
+                    for i in 0..support::<N>(&s[0]) {
                         let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
                         let mut g = [0.0; D];
                         g[0] = dx * py;
@@ -139,14 +177,14 @@ impl<const D: usize> TensorShape<D> {
                 }
             }
             _ => {
-                for k in 0..s[2].len {
+                for k in 0..support::<N>(&s[2]) {
                     let (pz, dz) = (s[2].phi[k], s[2].dphi[k]);
                     let plane = (s[2].first + k) * stride[2];
-                    for j in 0..s[1].len {
+                    for j in 0..support::<N>(&s[1]) {
                         let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
                         let row = plane + (s[1].first + j) * stride[1] + s[0].first;
                         let (pyz, dyz, pydz) = (py * pz, dy * pz, py * dz);
-                        for i in 0..s[0].len {
+                        for i in 0..support::<N>(&s[0]) {
                             let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
                             let mut g = [0.0; D];
                             g[0] = dx * pyz;
@@ -163,8 +201,19 @@ impl<const D: usize> TensorShape<D> {
     /// `sum_I phi_I g_I` of a grid vector field (one `[f64; D]` per node).
     #[inline]
     pub fn interpolate(&self, stride: &[usize; D], field: &[[f64; D]]) -> [f64; D] {
+        self.interpolate_n::<0>(stride, field)
+    }
+
+    /// [`Self::interpolate`] for a support size `N` known at compile time (see
+    /// [`Self::for_each_node_n`]).
+    #[inline(always)]
+    pub fn interpolate_n<const N: usize>(
+        &self,
+        stride: &[usize; D],
+        field: &[[f64; D]],
+    ) -> [f64; D] {
         let mut out = [0.0; D];
-        self.for_each_node(stride, |node, phi, _| {
+        self.for_each_node_n::<N>(stride, |node, phi, _| {
             for (o, g) in out.iter_mut().zip(&field[node]) {
                 *o += phi * g;
             }
@@ -182,13 +231,24 @@ impl<const D: usize> TensorShape<D> {
         stride: &[usize; D],
         field: &[[f64; D]],
     ) -> ([f64; D], [[f64; D]; D]) {
+        self.interpolate_with_gradient_n::<0>(stride, field)
+    }
+
+    /// [`Self::interpolate_with_gradient`] for a support size `N` known at compile time
+    /// (see [`Self::for_each_node_n`]).
+    #[inline(always)]
+    pub fn interpolate_with_gradient_n<const N: usize>(
+        &self,
+        stride: &[usize; D],
+        field: &[[f64; D]],
+    ) -> ([f64; D], [[f64; D]; D]) {
         let s = &self.axes;
         let mut value = [0.0; D];
         let mut gradient = [[0.0; D]; D];
         // Row sums along x of the row starting at node `row`.
         let row_sums = |row: usize| {
             let (mut r0, mut r1) = ([0.0; D], [0.0; D]);
-            for i in 0..s[0].len {
+            for i in 0..support::<N>(&s[0]) {
                 let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
                 let g = &field[row + i];
                 for a in 0..D {
@@ -207,7 +267,7 @@ impl<const D: usize> TensorShape<D> {
                 }
             }
             2 => {
-                for j in 0..s[1].len {
+                for j in 0..support::<N>(&s[1]) {
                     let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
                     let (r0, r1) = row_sums((s[1].first + j) * stride[1] + s[0].first);
                     for a in 0..D {
@@ -218,12 +278,12 @@ impl<const D: usize> TensorShape<D> {
                 }
             }
             _ => {
-                for k in 0..s[2].len {
+                for k in 0..support::<N>(&s[2]) {
                     let (pz, dz) = (s[2].phi[k], s[2].dphi[k]);
                     let plane = (s[2].first + k) * stride[2];
                     // Plane sums over y of the row sums: value, d/dx, d/dy.
                     let (mut q0, mut qx, mut qy) = ([0.0; D], [0.0; D], [0.0; D]);
-                    for j in 0..s[1].len {
+                    for j in 0..support::<N>(&s[1]) {
                         let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
                         let (r0, r1) = row_sums(plane + (s[1].first + j) * stride[1] + s[0].first);
                         for a in 0..D {
@@ -242,6 +302,18 @@ impl<const D: usize> TensorShape<D> {
             }
         }
         (value, gradient)
+    }
+}
+
+/// The number of non-zero functions of `shape`: `N` when known at compile time, else
+/// `shape.len`.
+#[inline(always)]
+fn support<const N: usize>(shape: &Shape) -> usize {
+    debug_assert!(N == 0 || N == shape.len, "support {N} != {}", shape.len);
+    if N == 0 {
+        shape.len
+    } else {
+        N
     }
 }
 
@@ -320,6 +392,15 @@ impl<const D: usize, B: Basis> TensorBasis<D, B> {
         for a in 0..D {
             self.axes[a].eval_particle(cell[a], x[a], half_length[a], &mut shape.axes[a]);
         }
+    }
+
+    /// `Some(n)` when every axis has the fixed support `n` ([`Basis::fixed_support`]).
+    pub fn fixed_support(&self) -> Option<usize> {
+        let n = self.axes[0].fixed_support()?;
+        self.axes
+            .iter()
+            .all(|b| b.fixed_support() == Some(n))
+            .then_some(n)
     }
 
     /// The DOFs of axis `a` on its `[min, max]` faces.

@@ -13,6 +13,7 @@
 //! and every momentum component are conserved by the mapping to round-off.
 
 use super::tensor_scatter::TensorScatter;
+use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorShape};
 use crate::particles::tensor::stress_index;
 use crate::particles::TensorParticles;
@@ -109,6 +110,19 @@ impl<const D: usize> TensorDirectMapping<D> {
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
     ) {
+        with_fixed_support!(basis, N => {
+            self.map_mass_and_force_n::<B, N>(basis, particles, cell_start, body, fields)
+        })
+    }
+
+    fn map_mass_and_force_n<B: Basis, const N: usize>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        body: TensorBody<'_, D>,
+        fields: &mut TensorGridFields<D>,
+    ) {
         let strides = *basis.strides();
         let half0 = self.half_length0;
         let p = particles;
@@ -130,7 +144,7 @@ impl<const D: usize> TensorDirectMapping<D> {
                             *s = vol * p.stress[stress_index(a, c)][k];
                         }
                     }
-                    shape.for_each_node(&strides, |node, phi, grad| {
+                    shape.for_each_node_n::<N>(&strides, |node, phi, grad| {
                         let out = &mut local[node - lo];
                         out[0] += m * phi;
                         for a in 0..D {
@@ -163,6 +177,18 @@ impl<const D: usize> TensorDirectMapping<D> {
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
     ) {
+        with_fixed_support!(basis, N => {
+            self.map_momentum_n::<B, N>(basis, particles, cell_start, fields)
+        })
+    }
+
+    fn map_momentum_n<B: Basis, const N: usize>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        fields: &mut TensorGridFields<D>,
+    ) {
         let strides = *basis.strides();
         let half0 = self.half_length0;
         let p = particles;
@@ -174,7 +200,7 @@ impl<const D: usize> TensorDirectMapping<D> {
                 for k in range {
                     eval_at(basis, p, &half0, k, &mut shape);
                     let mv: [f64; D] = std::array::from_fn(|a| p.mass[k] * p.v[a][k]);
-                    shape.for_each_node(&strides, |node, phi, _| {
+                    shape.for_each_node_n::<N>(&strides, |node, phi, _| {
                         let out = &mut local[node - lo];
                         for a in 0..D {
                             out[a] += mv[a] * phi;
@@ -191,6 +217,21 @@ impl<const D: usize> TensorDirectMapping<D> {
     /// `sum_p m_p |v_p|` (last entry) of the updated velocities, summed per task and then
     /// over the tasks in order (deterministic).
     pub fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &mut TensorParticles<D>,
+        cell_start: &[usize],
+        dt: f64,
+        fields: &mut TensorGridFields<D>,
+    ) -> [f64; 4] {
+        with_fixed_support!(basis, N => {
+            self.update_velocities_and_map_momentum_n::<B, N>(
+                basis, particles, cell_start, dt, fields,
+            )
+        })
+    }
+
+    fn update_velocities_and_map_momentum_n<B: Basis, const N: usize>(
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &mut TensorParticles<D>,
@@ -238,7 +279,7 @@ impl<const D: usize> TensorDirectMapping<D> {
                         None => [0.0; D],
                     };
                     basis.eval_particle(cell, position, half, &mut shape);
-                    let dv = shape.interpolate(&strides, acceleration);
+                    let dv = shape.interpolate_n::<N>(&strides, acceleration);
                     let mut mv = [0.0; D];
                     let mut speed2 = 0.0;
                     for a in 0..D {
@@ -249,7 +290,7 @@ impl<const D: usize> TensorDirectMapping<D> {
                         sum[a] += mv[a];
                     }
                     sum[3] += mass[k] * speed2.sqrt();
-                    shape.for_each_node(&strides, |node, phi, _| {
+                    shape.for_each_node_n::<N>(&strides, |node, phi, _| {
                         let out = &mut local[node - lo];
                         for a in 0..D {
                             out[a] += mv[a] * phi;

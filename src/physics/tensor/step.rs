@@ -19,6 +19,7 @@ use super::boundary::NodeConstraints;
 use super::material::{LinearElasticTensor, NeoHookeanTensor, TensorLaw, TensorMaterial};
 use crate::config::Scheme;
 use crate::error::{Error, Result};
+use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorShape};
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
@@ -138,26 +139,27 @@ impl<const D: usize, B: Basis> TensorStepper<D, B> {
         }
         // 4.-5. Kinematics and stress.
         let usl_acceleration = (self.scheme == Scheme::Usl).then_some(&fields.acceleration[..]);
-        let outcome = match self.material {
-            TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor>(
-                &self.basis,
-                &self.mapping.half_length0,
+        let (basis, half0, velocity) = (&self.basis, &self.mapping.half_length0, &fields.velocity);
+        let outcome = with_fixed_support!(basis, N => match self.material {
+            TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor, N>(
+                basis,
+                half0,
                 particles,
-                &fields.velocity,
+                velocity,
                 usl_acceleration,
                 dt,
                 law,
             ),
-            TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor>(
-                &self.basis,
-                &self.mapping.half_length0,
+            TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor, N>(
+                basis,
+                half0,
                 particles,
-                &fields.velocity,
+                velocity,
                 usl_acceleration,
                 dt,
                 law,
             ),
-        };
+        });
         if let Some((particle, field)) = outcome.failure {
             return Err(match field {
                 "volume" => Error::CollapsedVolume {
@@ -369,7 +371,7 @@ fn chunks_of<'a, const D: usize>(
 /// `v_p += dt phi^T a`. Parallel over fixed chunks of particles, each task writing only
 /// its own chunk.
 #[allow(clippy::too_many_arguments)]
-fn update_particles<const D: usize, B: Basis, L: TensorLaw>(
+fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
     basis: &TensorBasis<D, B>,
     half_length0: &Option<[f64; D]>,
     particles: &mut TensorParticles<D>,
@@ -407,9 +409,9 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw>(
                 };
                 let cell = grid.axis_cells(x);
                 basis.eval_particle(cell, x, half, &mut shape);
-                let (v_grid, l) = shape.interpolate_with_gradient(&strides, velocity);
+                let (v_grid, l) = shape.interpolate_with_gradient_n::<N>(&strides, velocity);
                 if let Some(a) = usl_acceleration {
-                    let dv = shape.interpolate(&strides, a);
+                    let dv = shape.interpolate_n::<N>(&strides, a);
                     for d in 0..D {
                         c.v[d][i] += dt * dv[d];
                     }
