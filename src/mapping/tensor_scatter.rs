@@ -90,6 +90,35 @@ impl<const W: usize> TensorScatter<W> {
         S: Send,
         K: Fn(S, Range<usize>, usize, &mut [[f64; W]]) + Sync,
     {
+        self.run(states, output, |state, cells, lo, local| {
+            kernel(
+                state,
+                cell_start[cells.start]..cell_start[cells.end],
+                lo,
+                local,
+            )
+        });
+    }
+
+    /// Scatter by cells: `kernel(cells, lo, local)` adds the contributions of the task's
+    /// cells `cells` (e.g. their Gauss points) to `local[node - lo]`.
+    pub fn scatter_cells<K>(&mut self, output: &mut [[f64; W]], kernel: K)
+    where
+        K: Fn(Range<usize>, usize, &mut [[f64; W]]) + Sync,
+    {
+        let states = vec![(); self.tasks.len()];
+        self.run(states, output, |(), cells, lo, local| {
+            kernel(cells, lo, local)
+        });
+    }
+
+    /// Run `kernel(state, task cells, lo, local)` for every task on its zeroed buffer,
+    /// then reduce into `output`.
+    fn run<S, K>(&mut self, states: Vec<S>, output: &mut [[f64; W]], kernel: K)
+    where
+        S: Send,
+        K: Fn(S, Range<usize>, usize, &mut [[f64; W]]) + Sync,
+    {
         debug_assert_eq!(output.len(), self.num_dofs);
         debug_assert_eq!(states.len(), self.tasks.len());
         let mut chunks: Vec<&mut [[f64; W]]> = Vec::with_capacity(self.tasks.len());
@@ -107,8 +136,7 @@ impl<const W: usize> TensorScatter<W> {
             .for_each(|(k, (local, state))| {
                 local.fill([0.0; W]);
                 let task = &tasks[k];
-                let particles = cell_start[task.cells.start]..cell_start[task.cells.end];
-                kernel(state, particles, task.nodes.start, local);
+                kernel(state, task.cells.clone(), task.nodes.start, local);
             });
         self.reduce(output);
     }

@@ -8,3 +8,4 @@ pub mod gauss;
 pub mod norms;
 pub mod sum;
 pub mod taylor;
+pub mod taylor_nd;
