@@ -7,12 +7,14 @@
 
 use crate::app::RunOptions;
 use crate::config::{
-    integer_root, BasisKind, MaterialModel, Scenario, TimeStep, VelocityReference,
+    integer_root, BasisKind, MaterialModel, ReconstructionKind, Scenario, TimeStep,
+    VelocityReference,
 };
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, GimpBasis, Grid, LinearBasis, TensorBasis};
+use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorDirectMapping;
-use crate::mapping::RemedyCounts;
+use crate::mapping::tensor_tls::TensorTlsMapping;
 use crate::output::csv::write_history;
 use crate::output::scatter::{scatter_plot, ScatterAxes};
 use crate::output::summary::{Conservation, Errors, SolverSummary};
@@ -154,23 +156,54 @@ impl Parts<'_> {
                 initial_speed: (modulus / density).sqrt(),
             },
         };
-        let half_length0 = particle_domain
-            .then(|| std::array::from_fn(|a| 0.5 * basis.grid.axes[a].h / self.per_axis as f64));
-        let mapping = TensorDirectMapping::new(&basis, half_length0);
+        let half_length0: [f64; D] =
+            std::array::from_fn(|a| 0.5 * basis.grid.axes[a].h / self.per_axis as f64);
+        let method = &self.scenario.method;
+        let stepper: Box<dyn crate::physics::tensor::TensorTimeStepper<D>> =
+            match method.reconstruction {
+                ReconstructionKind::Tls => {
+                    let points = crate::app::build::gauss_points(self.scenario);
+                    let mapping = TensorTlsMapping::new(
+                        &basis,
+                        points,
+                        method.cell_totals,
+                        half_length0,
+                        particle_domain,
+                    )
+                    .ok_or_else(|| {
+                        Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
+                    })?;
+                    self.stepper(basis, mapping, problem, &mut particles)
+                }
+                _ => {
+                    let mapping =
+                        TensorDirectMapping::new(&basis, particle_domain.then_some(half_length0));
+                    self.stepper(basis, mapping, problem, &mut particles)
+                }
+            };
+        Ok(TensorSimulation::new(
+            stepper,
+            particles,
+            stepping,
+            self.scenario.time.end,
+        ))
+    }
+
+    fn stepper<const D: usize, B: Basis + Clone + 'static, M: TensorMapping<D> + 'static>(
+        &self,
+        basis: TensorBasis<D, B>,
+        mapping: M,
+        problem: &TensorProblem<D>,
+        particles: &mut TensorParticles<D>,
+    ) -> Box<dyn crate::physics::tensor::TensorTimeStepper<D>> {
         let constraints = NodeConstraints::new(&basis, &problem.faces);
-        let stepper = TensorStepper::new(
+        Box::new(TensorStepper::new(
             basis,
             mapping,
             self.material,
             self.scenario.method.scheme,
             constraints,
-            &mut particles,
-        );
-        Ok(TensorSimulation::new(
-            Box::new(stepper),
             particles,
-            stepping,
-            self.scenario.time.end,
         ))
     }
 }
@@ -428,7 +461,7 @@ fn write_outputs<const D: usize>(
             total_iterations: 0,
             max_iterations: 0,
         },
-        reconstruction_remedies: RemedyCounts::default(),
+        reconstruction_remedies: simulation.stepper.remedies(),
         config: scenario.clone(),
     };
     write_tensor_particles(&out.join("particles.csv"), p, &as_refs(&columns))?;

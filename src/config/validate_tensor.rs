@@ -221,14 +221,7 @@ impl Scenario {
             BasisKind::Cpdi => return one_d_only("method.basis", "\"cpdi\"", "CPDI"),
         }
         match self.method.reconstruction {
-            ReconstructionKind::None => {}
-            ReconstructionKind::Tls => {
-                return Err(Error::invalid(
-                    "method.reconstruction",
-                    "\"tls\"",
-                    "TLS in 2D / 3D is not available in this version (1D only for now)",
-                ))
-            }
+            ReconstructionKind::None | ReconstructionKind::Tls => {}
             other => {
                 return one_d_only(
                     "method.reconstruction",

@@ -18,8 +18,10 @@ pub mod scatter;
 #[cfg(test)]
 pub(crate) mod spectrum;
 pub mod subpoints;
+pub mod tensor;
 pub mod tensor_direct;
 pub mod tensor_scatter;
+pub mod tensor_tls;
 pub mod tls;
 
 pub use cubic_spline::CubicSplineMapping;

@@ -12,6 +12,7 @@
 //! Partition of unity makes `sum_I m_I = sum_p m_p` and `sum_I p_I = sum_p m_p v_p`: mass
 //! and every momentum component are conserved by the mapping to round-off.
 
+use super::tensor::TensorMapping;
 use super::tensor_scatter::TensorScatter;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorShape};
@@ -29,7 +30,7 @@ pub struct TensorGridFields<const D: usize> {
     pub acceleration: Vec<[f64; D]>,
     pub velocity: Vec<[f64; D]>,
     /// Scatter output `[m, f_x, f_y, f_z]`.
-    mass_force: Vec<[f64; 4]>,
+    pub(crate) mass_force: Vec<[f64; 4]>,
 }
 
 impl<const D: usize> TensorGridFields<D> {
@@ -331,4 +332,48 @@ pub fn split_components<'a, const D: usize>(
     (0..ranges.len())
         .map(|_| std::array::from_fn(|a| per_component[a].next().unwrap_or_default()))
         .collect()
+}
+
+impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
+    fn name(&self) -> &'static str {
+        "none"
+    }
+
+    fn particle_domains(&self) -> &Option<[f64; D]> {
+        &self.half_length0
+    }
+
+    fn map_mass_and_force<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        body: TensorBody<'_, D>,
+        fields: &mut TensorGridFields<D>,
+    ) {
+        TensorDirectMapping::map_mass_and_force(self, basis, particles, cell_start, body, fields)
+    }
+
+    fn map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        fields: &mut TensorGridFields<D>,
+    ) {
+        TensorDirectMapping::map_momentum(self, basis, particles, cell_start, fields)
+    }
+
+    fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &mut TensorParticles<D>,
+        cell_start: &[usize],
+        dt: f64,
+        fields: &mut TensorGridFields<D>,
+    ) -> [f64; 4] {
+        TensorDirectMapping::update_velocities_and_map_momentum(
+            self, basis, particles, cell_start, dt, fields,
+        )
+    }
 }

@@ -23,6 +23,9 @@
 //! for `s_a s_b`). Points all on one line of a 2D cell, or fewer points than terms, fail
 //! it; the fit then drops the degree-2 terms, then the degree-1 terms ([`fit_degree`]).
 
+// Index loops: the indices enter the formulas (terms, axes, LDL^T rows).
+#![allow(clippy::needless_range_loop)]
+
 use super::taylor::MIN_SPREAD;
 
 /// The most terms of a fit (total degree 2 in 3D).

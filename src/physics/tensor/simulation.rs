@@ -11,7 +11,9 @@
 use super::step::{TensorStepReport, TensorStepper};
 use crate::error::Result;
 use crate::grid::Basis;
+use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorBody;
+use crate::mapping::RemedyCounts;
 use crate::particles::TensorParticles;
 use crate::physics::HistoryRow;
 use rayon::prelude::*;
@@ -42,9 +44,13 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
     fn basis_name(&self) -> &'static str;
     /// P-wave modulus of the law.
     fn wave_modulus(&self) -> f64;
+    /// Remedies of degenerate reconstruction fits so far.
+    fn remedies(&self) -> RemedyCounts;
 }
 
-impl<const D: usize, B: Basis> TensorTimeStepper<D> for TensorStepper<D, B> {
+impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
+    for TensorStepper<D, B, M>
+{
     fn step(
         &mut self,
         particles: &mut TensorParticles<D>,
@@ -63,6 +69,9 @@ impl<const D: usize, B: Basis> TensorTimeStepper<D> for TensorStepper<D, B> {
     }
     fn wave_modulus(&self) -> f64 {
         self.material.wave_modulus()
+    }
+    fn remedies(&self) -> RemedyCounts {
+        self.mapping.remedies()
     }
 }
 

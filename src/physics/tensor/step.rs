@@ -21,6 +21,7 @@ use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorShape};
+use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::TensorParticles;
@@ -40,10 +41,11 @@ pub struct TensorStepReport {
     pub energies: (f64, f64),
 }
 
-/// The 2D / 3D stepper, generic over the dimension and the 1D basis of each axis.
-pub struct TensorStepper<const D: usize, B: Basis> {
+/// The 2D / 3D stepper, generic over the dimension, the 1D basis of each axis and the
+/// mapping.
+pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorDirectMapping<D>> {
     pub basis: TensorBasis<D, B>,
-    pub mapping: TensorDirectMapping<D>,
+    pub mapping: M,
     pub material: TensorMaterial,
     pub scheme: Scheme,
     pub constraints: NodeConstraints<D>,
@@ -53,11 +55,11 @@ pub struct TensorStepper<const D: usize, B: Basis> {
     total_mass: f64,
 }
 
-impl<const D: usize, B: Basis> TensorStepper<D, B> {
+impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
     /// A stepper for `particles`, which are sorted by cell here.
     pub fn new(
         basis: TensorBasis<D, B>,
-        mapping: TensorDirectMapping<D>,
+        mapping: M,
         material: TensorMaterial,
         scheme: Scheme,
         constraints: NodeConstraints<D>,
@@ -139,7 +141,11 @@ impl<const D: usize, B: Basis> TensorStepper<D, B> {
         }
         // 4.-5. Kinematics and stress.
         let usl_acceleration = (self.scheme == Scheme::Usl).then_some(&fields.acceleration[..]);
-        let (basis, half0, velocity) = (&self.basis, &self.mapping.half_length0, &fields.velocity);
+        let (basis, half0, velocity) = (
+            &self.basis,
+            self.mapping.particle_domains(),
+            &fields.velocity,
+        );
         let outcome = with_fixed_support!(basis, N => match self.material {
             TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor, N>(
                 basis,

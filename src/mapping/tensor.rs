@@ -1,0 +1,64 @@
+//! The plug point of the dimension-generic core's particle-to-grid transfers
+//! (`docs/dimensions.md`, `docs/tls.md`): the direct mapping of standard MPM
+//! ([`super::tensor_direct::TensorDirectMapping`]) and the conservative Taylor least
+//! squares with Gauss quadrature ([`super::tensor_tls::TensorTlsMapping`]) implement
+//! [`TensorMapping`]; the time stepper is generic over it (one dispatch at build time).
+
+use super::tensor_direct::{TensorBody, TensorGridFields};
+use super::RemedyCounts;
+use crate::grid::{Basis, TensorBasis};
+use crate::linalg::CsrMatrix;
+use crate::particles::TensorParticles;
+
+/// Particle → grid transfers of one step.
+pub trait TensorMapping<const D: usize>: Send + Sync {
+    /// `method.reconstruction`.
+    fn name(&self) -> &'static str;
+
+    /// The initial half-lengths of the particle domains for particle-domain bases (GIMP),
+    /// `None` for point bases: the basis at a particle is evaluated over
+    /// `l_a = l0_a |F_aa|`.
+    fn particle_domains(&self) -> &Option<[f64; D]>;
+
+    /// `m_I` and `f_I = f_ext - f_int` into `fields.mass`, `fields.force`.
+    fn map_mass_and_force<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        body: TensorBody<'_, D>,
+        fields: &mut TensorGridFields<D>,
+    );
+
+    /// `p_I` of the current particle velocities into `fields.momentum`.
+    fn map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        fields: &mut TensorGridFields<D>,
+    );
+
+    /// MUSL: `v_p += dt sum_I phi_I a_I`, then `p_I` from the updated velocities. Returns
+    /// `sum_p m_p v_p` (components `0..D`) and `sum_p m_p |v_p|` (last entry), summed in a
+    /// fixed order.
+    fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &mut TensorParticles<D>,
+        cell_start: &[usize],
+        dt: f64,
+        fields: &mut TensorGridFields<D>,
+    ) -> [f64; 4];
+
+    /// Remedies of degenerate cell fits so far (reconstructions only).
+    fn remedies(&self) -> RemedyCounts {
+        RemedyCounts::default()
+    }
+
+    /// The consistent mass matrix of the last [`TensorMapping::map_mass_and_force`], when
+    /// the mapping assembles one.
+    fn consistent_mass(&self) -> Option<&CsrMatrix> {
+        None
+    }
+}

@@ -1,0 +1,936 @@
+//! Conservative Taylor least squares (TLS) in `D` = 1, 2, 3 dimensions with Gauss
+//! quadrature (`docs/tls.md`): the 1D mapping of [`super::tls`] on boxes.
+//!
+//! Per *active cell box* (the cell clipped to the material extent along every axis, see
+//! below) and per field, a Taylor reconstruction of total degree `q <= 2`
+//! ([`crate::numerics::taylor_nd`]) is fitted to the particles of the cell:
+//!
+//! * stress, each in-plane component: full least squares;
+//! * density `rho_p = m_p / V_p`: conservative, `a_1 = c_e / |box_e|` with `c_e` the
+//!   cell's mass;
+//! * momentum density `rho_p v_p` (and a per-particle body force `rho_p b_p`), each
+//!   component: conservative with the cell's momentum `sum m_p v_p`.
+//!
+//! Every term but the first has zero mean over the box, so `int_box rho_hat = c_e` in
+//! every cell; the `(p + 2)^D`-point tensor Gauss rule integrates the reconstructions
+//! against the basis exactly, and partition of unity makes `sum_I m_I = sum_p m_p` and
+//! `sum_I p_I = sum_p m_p v_p` component by component, to round-off:
+//!
+//! ```text
+//! m_I   = sum_g rho_hat(x_g) w_g phi_I(x_g)
+//! f_I   = sum_g ( b rho_hat(x_g) phi_I(x_g) - sigma_hat(x_g) . grad phi_I(x_g) ) w_g
+//! p_I   = sum_g (rho v)_hat(x_g) w_g phi_I(x_g)
+//! M^C   = sum_g rho_hat(x_g) w_g phi(x_g) phi(x_g)^T
+//! ```
+//!
+//! **Active boxes.** The material extent along axis `a` is
+//! `[min_p (x_a - l_a), max_p (x_a + l_a)]` with the particle half-lengths
+//! `l_a = l0_a |F_aa|` (`l0_a` the initial half spacing); a cell's box is the cell
+//! clipped to it. With `method.cell_totals = "centres"` only cells holding a particle are
+//! active, and each particle counts wholly in its cell; with `"domains"` (default) every
+//! cell the extent overlaps is active, and each particle's mass and momentum are split
+//! between the (up to `3^D`) cells its box domain `x +- min(l, h)` overlaps, axis by axis
+//! with the 1D rule, so that cell totals do not jump when a particle crosses a face.
+//!
+//! **Degenerate cells** (fewer particles than terms, or all on one line / plane) drop the
+//! degree 2 terms, then the degree 1 terms, counted in `summary.json`
+//! (`reconstruction_remedies`). **Density limiter**: a density fit negative at a Gauss
+//! point has its non-constant coefficients scaled by `theta = a_1 / (a_1 - min_g rho_hat)`,
+//! which keeps the cell mass and makes the lumped masses non-negative and `M^C` positive
+//! semi-definite.
+
+// Index loops: the indices enter the formulas (terms, axes, LDL^T rows).
+#![allow(clippy::needless_range_loop)]
+
+use super::tensor::TensorMapping;
+use super::tensor_direct::{half_lengths, split_components, TensorBody, TensorGridFields};
+use super::tensor_scatter::TensorScatter;
+use super::RemedyCounts;
+use crate::config::CellTotals;
+use crate::grid::tensor::with_fixed_support;
+use crate::grid::{Basis, TensorBasis, TensorGrid, TensorShape};
+use crate::numerics::gauss::{GaussRule, MAX_POINTS};
+use crate::numerics::taylor_nd::{add_rhs, fit_degree, terms, NormalMatrix, TaylorBox, MAX_TERMS};
+use crate::particles::tensor::stress_index;
+use crate::particles::TensorParticles;
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// Cells per rayon task in the per-cell passes.
+const CELLS_PER_TASK: usize = 64;
+/// Particles per rayon task in the velocity update.
+const PARTICLES_PER_TASK: usize = 2048;
+/// Highest total degree of the fits.
+const MAX_DEGREE: usize = 2;
+
+/// The in-plane stress components `(a, c)`, `a <= c`, fitted in `D` dimensions.
+fn stress_components<const D: usize>() -> Vec<(usize, usize)> {
+    let mut pairs = Vec::new();
+    for a in 0..D {
+        pairs.push((a, a));
+    }
+    for a in 0..D {
+        for c in a + 1..D {
+            pairs.push((a, c));
+        }
+    }
+    pairs
+}
+
+/// The Gauss points of one box: per axis the points and weights of the rule mapped onto
+/// `[lo_a, hi_a]`.
+#[derive(Clone, Copy)]
+struct BoxRule<const D: usize> {
+    x: [[f64; MAX_POINTS]; D],
+    w: [[f64; MAX_POINTS]; D],
+    n: usize,
+}
+
+impl<const D: usize> BoxRule<D> {
+    fn new(rule: &GaussRule, lo: [f64; D], hi: [f64; D]) -> Self {
+        let mut out = Self {
+            x: [[0.0; MAX_POINTS]; D],
+            w: [[0.0; MAX_POINTS]; D],
+            n: rule.len,
+        };
+        for a in 0..D {
+            for (g, (x, w)) in rule.mapped(lo[a], hi[a]).enumerate() {
+                out.x[a][g] = x;
+                out.w[a][g] = w;
+            }
+        }
+        out
+    }
+
+    /// `f(x_g, w_g)` for every point, x fastest; `w_g = w_x w_y w_z`.
+    #[inline]
+    fn for_each(&self, mut f: impl FnMut([f64; D], f64)) {
+        let total = self.n.pow(D as u32);
+        for g in 0..total {
+            let mut rest = g;
+            let mut x = [0.0; D];
+            let mut w = 1.0;
+            for a in 0..D {
+                let i = rest % self.n;
+                rest /= self.n;
+                x[a] = self.x[a][i];
+                w *= self.w[a][i];
+            }
+            f(x, w);
+        }
+    }
+}
+
+/// The TLS mapping of the dimension-generic core.
+#[derive(Clone, Debug)]
+pub struct TensorTlsMapping<const D: usize> {
+    grid: TensorGrid<D>,
+    rule: GaussRule,
+    totals: CellTotals,
+    /// Initial half spacing of the particles (material extent, shares).
+    half_length0: [f64; D],
+    /// GIMP: the same half spacing for the basis at the particles; `None` for point bases.
+    particle_domains: Option<[f64; D]>,
+    lo: Vec<[f64; D]>,
+    hi: Vec<[f64; D]>,
+    active: Vec<bool>,
+    /// `3^D` shares `[f64; 4]` per cell (`"domains"` only): what the cell's particles give
+    /// to the neighbour at offset `k` (base-3 digits `o_a + 1`).
+    shares: Vec<[f64; 4]>,
+    /// Conserved totals per cell (mass, or the `D` components of a vector).
+    cell_totals: Vec<[f64; 4]>,
+    /// Stress coefficients, `stress_components` per cell.
+    stress: Vec<[f64; MAX_TERMS]>,
+    density: Vec<[f64; MAX_TERMS]>,
+    /// Momentum-density (or body-force density) coefficients, `D` per cell.
+    vector: Vec<[f64; MAX_TERMS]>,
+    mass_force: TensorScatter<4>,
+    vector_scatter: TensorScatter<D>,
+    body_force: Vec<[f64; D]>,
+    remedies: RemedyCounts,
+}
+
+impl<const D: usize> TensorTlsMapping<D> {
+    /// TLS on the grid of `basis` with a `gauss_points`-point rule per axis (`None` if no
+    /// such rule or fewer than 2 points), particles of initial half spacing
+    /// `half_length0`; `particle_domain` for GIMP.
+    pub fn new<B: Basis>(
+        basis: &TensorBasis<D, B>,
+        gauss_points: usize,
+        totals: CellTotals,
+        half_length0: [f64; D],
+        particle_domain: bool,
+    ) -> Option<Self> {
+        if gauss_points < 2 {
+            return None;
+        }
+        let rule = GaussRule::new(gauss_points)?;
+        let cells = basis.grid.num_cells();
+        Some(Self {
+            grid: basis.grid,
+            rule,
+            totals,
+            half_length0,
+            particle_domains: particle_domain.then_some(half_length0),
+            lo: vec![[0.0; D]; cells],
+            hi: vec![[0.0; D]; cells],
+            active: vec![false; cells],
+            shares: Vec::new(),
+            cell_totals: vec![[0.0; 4]; cells],
+            stress: vec![[0.0; MAX_TERMS]; cells * stress_components::<D>().len()],
+            density: vec![[0.0; MAX_TERMS]; cells],
+            vector: vec![[0.0; MAX_TERMS]; cells * D],
+            mass_force: TensorScatter::new(basis),
+            vector_scatter: TensorScatter::new(basis),
+            body_force: vec![[0.0; D]; basis.num_dofs()],
+            remedies: RemedyCounts::default(),
+        })
+    }
+
+    /// The active box `[lo, hi]` of `cell` in the last mapping (`None` if inactive).
+    pub fn active_box(&self, cell: usize) -> Option<([f64; D], [f64; D])> {
+        self.active[cell].then(|| (self.lo[cell], self.hi[cell]))
+    }
+
+    /// Density coefficients of `cell` in the last mapping.
+    pub fn density(&self, cell: usize) -> &[f64; MAX_TERMS] {
+        &self.density[cell]
+    }
+
+    /// The particle half-lengths `l_a = l0_a |F_aa|` of particle `p`.
+    #[inline]
+    fn domain(&self, particles: &TensorParticles<D>, p: usize) -> [f64; D] {
+        half_lengths(particles, &Some(self.half_length0), p)
+    }
+
+    /// Material extent and active boxes from the current particles.
+    fn update_boxes(&mut self, particles: &TensorParticles<D>, cell_start: &[usize]) {
+        let n = particles.len();
+        let this = &*self;
+        let (lo_ext, hi_ext) = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .fold(
+                || ([f64::INFINITY; D], [f64::NEG_INFINITY; D]),
+                |(mut lo, mut hi), p| {
+                    let l = this.domain(particles, p);
+                    for a in 0..D {
+                        let x = particles.x[a][p];
+                        lo[a] = if x - l[a] < lo[a] { x - l[a] } else { lo[a] };
+                        hi[a] = if x + l[a] > hi[a] { x + l[a] } else { hi[a] };
+                    }
+                    (lo, hi)
+                },
+            )
+            .reduce(
+                || ([f64::INFINITY; D], [f64::NEG_INFINITY; D]),
+                |a, b| {
+                    (
+                        std::array::from_fn(|k| a.0[k].min(b.0[k])),
+                        std::array::from_fn(|k| a.1[k].max(b.1[k])),
+                    )
+                },
+            );
+        let grid = self.grid;
+        let require_particles = self.totals == CellTotals::Centres;
+        (&mut self.lo, &mut self.hi, &mut self.active)
+            .into_par_iter()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, (lo, hi, active))| {
+                let index = cell_axes(&grid, cell);
+                let mut ok = !require_particles || cell_start[cell + 1] > cell_start[cell];
+                for a in 0..D {
+                    let g = &grid.axes[a];
+                    let left = g.cell_left(index[a]);
+                    let right = left + g.h;
+                    lo[a] = if lo_ext[a] > left { lo_ext[a] } else { left };
+                    hi[a] = if hi_ext[a] < right { hi_ext[a] } else { right };
+                    ok &= hi[a] > lo[a];
+                }
+                *active = ok;
+            });
+    }
+
+    /// `cell_totals[e]` (the first `width` entries) of `quantity(p)`: per particle in its
+    /// cell (`"centres"`), or split by domain overlap (`"domains"`).
+    fn update_totals(
+        &mut self,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        quantity: impl Fn(usize) -> [f64; 4] + Sync,
+    ) {
+        let grid = self.grid;
+        match self.totals {
+            CellTotals::Centres => {
+                self.cell_totals
+                    .par_iter_mut()
+                    .with_min_len(CELLS_PER_TASK)
+                    .enumerate()
+                    .for_each(|(cell, total)| {
+                        *total = [0.0; 4];
+                        for p in cell_start[cell]..cell_start[cell + 1] {
+                            let q = quantity(p);
+                            for c in 0..4 {
+                                total[c] += q[c];
+                            }
+                        }
+                    });
+            }
+            CellTotals::Domains => {
+                let k3 = 3usize.pow(D as u32);
+                self.shares.resize(grid.num_cells() * k3, [0.0; 4]);
+                let mut shares = std::mem::take(&mut self.shares);
+                let half0 = Some(self.half_length0);
+                shares
+                    .par_chunks_mut(k3)
+                    .with_min_len(CELLS_PER_TASK)
+                    .enumerate()
+                    .for_each(|(cell, out)| {
+                        out.fill([0.0; 4]);
+                        let index = cell_axes(&grid, cell);
+                        for p in cell_start[cell]..cell_start[cell + 1] {
+                            let x = particles.position(p);
+                            let half = half_lengths(particles, &half0, p);
+                            split_shares(&grid, index, x, half, quantity(p), out);
+                        }
+                    });
+                let shares_ref = &shares;
+                self.cell_totals
+                    .par_iter_mut()
+                    .with_min_len(CELLS_PER_TASK)
+                    .enumerate()
+                    .for_each(|(cell, total)| {
+                        *total = [0.0; 4];
+                        let index = cell_axes(&grid, cell);
+                        // From the highest offset down: in 1D from the left neighbour, own,
+                        // from the right neighbour (the 1D order).
+                        for k in (0..k3).rev() {
+                            let mut source = [0usize; D];
+                            let mut inside = true;
+                            let mut rest = k;
+                            for a in 0..D {
+                                let o = (rest % 3) as isize - 1;
+                                rest /= 3;
+                                let s = index[a] as isize - o;
+                                inside &= s >= 0 && (s as usize) < grid.axes[a].cells;
+                                source[a] = s.max(0) as usize;
+                            }
+                            if inside {
+                                let share = shares_ref[grid.cell_index(source) * k3 + k];
+                                for c in 0..4 {
+                                    total[c] += share[c];
+                                }
+                            }
+                        }
+                    });
+                self.shares = shares;
+            }
+        }
+    }
+
+    /// Fit stress (full) and density (conservative) in every active cell; density limiter.
+    fn fit_stress_and_density(&mut self, particles: &TensorParticles<D>, cell_start: &[usize]) {
+        let components = stress_components::<D>();
+        let ns = components.len();
+        let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
+        let rule = &self.rule;
+        let counts: RemedyCounts = self
+            .stress
+            .par_chunks_mut(ns)
+            .zip(self.density.par_iter_mut())
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .map(|(cell, (stress, density))| {
+                let mut counts = RemedyCounts::default();
+                if !active[cell] {
+                    stress.fill([0.0; MAX_TERMS]);
+                    *density = [0.0; MAX_TERMS];
+                    return counts;
+                }
+                let taylor = TaylorBox::new(lo[cell], hi[cell]);
+                let mut normal = NormalMatrix::<D>::default();
+                let mut stress_rhs = [[0.0; MAX_TERMS]; 6];
+                let mut density_rhs = [0.0; MAX_TERMS];
+                for p in cell_start[cell]..cell_start[cell + 1] {
+                    let t = taylor.terms(particles.position(p));
+                    normal.add(&t);
+                    for (rhs, &(a, c)) in stress_rhs.iter_mut().zip(&components) {
+                        add_rhs::<D>(rhs, &t, particles.stress[stress_index(a, c)][p]);
+                    }
+                    add_rhs::<D>(&mut density_rhs, &t, particles.density[p]);
+                }
+                let (full, q_full) = fit_degree(&normal, false, MAX_DEGREE);
+                let (conservative, q_cons) = fit_degree(&normal, true, MAX_DEGREE);
+                for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
+                    *a = full.solve(&normal, rhs, 0.0);
+                }
+                let a1 = totals[cell][0] / box_volume(&lo[cell], &hi[cell]);
+                *density = conservative.solve(&normal, &density_rhs, a1);
+                counts.density_limited_fits =
+                    limit_density(&taylor, &BoxRule::new(rule, lo[cell], hi[cell]), density);
+                let reduced = u64::from(q_full < MAX_DEGREE) + u64::from(q_cons < MAX_DEGREE);
+                counts.degenerate_fits = reduced;
+                counts.order_reduced_fits = reduced;
+                counts
+            })
+            .reduce(RemedyCounts::default, |mut a, b| {
+                a += b;
+                a
+            });
+        self.remedies += counts;
+    }
+
+    /// Conservative fits of the `D` components of `values[a][p]` (densities
+    /// `rho_p values_p`, totals `m_p values_p`) into `self.vector`.
+    fn fit_vector(
+        &mut self,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        values: &[Vec<f64>; D],
+    ) {
+        self.update_totals(particles, cell_start, |p| {
+            let mut q = [0.0; 4];
+            for a in 0..D {
+                q[a] = particles.mass[p] * values[a][p];
+            }
+            q
+        });
+        let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
+        let counts: RemedyCounts = self
+            .vector
+            .par_chunks_mut(D)
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .map(|(cell, fits)| {
+                let mut counts = RemedyCounts::default();
+                if !active[cell] {
+                    fits.fill([0.0; MAX_TERMS]);
+                    return counts;
+                }
+                let taylor = TaylorBox::new(lo[cell], hi[cell]);
+                let mut normal = NormalMatrix::<D>::default();
+                let mut rhs = [[0.0; MAX_TERMS]; D];
+                for p in cell_start[cell]..cell_start[cell + 1] {
+                    let t = taylor.terms(particles.position(p));
+                    normal.add(&t);
+                    for a in 0..D {
+                        add_rhs::<D>(&mut rhs[a], &t, particles.density[p] * values[a][p]);
+                    }
+                }
+                let (conservative, q) = fit_degree(&normal, true, MAX_DEGREE);
+                let volume = box_volume(&lo[cell], &hi[cell]);
+                for a in 0..D {
+                    fits[a] = conservative.solve(&normal, &rhs[a], totals[cell][a] / volume);
+                }
+                let reduced = u64::from(q < MAX_DEGREE);
+                counts.degenerate_fits = reduced;
+                counts.order_reduced_fits = reduced;
+                counts
+            })
+            .reduce(RemedyCounts::default, |mut a, b| {
+                a += b;
+                a
+            });
+        self.remedies += counts;
+    }
+
+    /// `out_I = sum_g w_g v_hat(x_g) phi_I(x_g)` of the fitted vector density.
+    fn integrate_vector<B: Basis, const N: usize>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        out: &mut [[f64; D]],
+    ) {
+        let strides = *basis.strides();
+        let (lo, hi, active, vector, rule) =
+            (&self.lo, &self.hi, &self.active, &self.vector, &self.rule);
+        self.vector_scatter
+            .scatter_cells(out, |cells: Range<usize>, first, local| {
+                let mut shape = TensorShape::<D>::default();
+                for cell in cells {
+                    if !active[cell] {
+                        continue;
+                    }
+                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
+                    let index = cell_axes(&basis.grid, cell);
+                    let fits = &vector[cell * D..(cell + 1) * D];
+                    BoxRule::new(rule, lo[cell], hi[cell]).for_each(|x, w| {
+                        basis.eval_particle(index, x, [0.0; D], &mut shape);
+                        let t = taylor.terms(x);
+                        let value: [f64; D] = std::array::from_fn(|a| dot::<D>(&fits[a], &t) * w);
+                        shape.for_each_node_n::<N>(&strides, |node, phi, _| {
+                            let o = &mut local[node - first];
+                            for a in 0..D {
+                                o[a] += value[a] * phi;
+                            }
+                        });
+                    });
+                }
+            });
+    }
+
+    /// `m_I`, `-f_int` into the mass-force scatter output.
+    fn integrate_mass_and_force<B: Basis, const N: usize>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        out: &mut [[f64; 4]],
+    ) {
+        let strides = *basis.strides();
+        let components = stress_components::<D>();
+        let ns = components.len();
+        let (lo, hi, active, stress, density, rule) = (
+            &self.lo,
+            &self.hi,
+            &self.active,
+            &self.stress,
+            &self.density,
+            &self.rule,
+        );
+        self.mass_force
+            .scatter_cells(out, |cells: Range<usize>, first, local| {
+                let mut shape = TensorShape::<D>::default();
+                for cell in cells {
+                    if !active[cell] {
+                        continue;
+                    }
+                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
+                    let index = cell_axes(&basis.grid, cell);
+                    let fits = &stress[cell * ns..(cell + 1) * ns];
+                    BoxRule::new(rule, lo[cell], hi[cell]).for_each(|x, w| {
+                        basis.eval_particle(index, x, [0.0; D], &mut shape);
+                        let t = taylor.terms(x);
+                        let rw = dot::<D>(&density[cell], &t) * w;
+                        let mut sw = [[0.0; D]; D];
+                        for (fit, &(a, c)) in fits.iter().zip(&components) {
+                            let s = dot::<D>(fit, &t) * w;
+                            sw[a][c] = s;
+                            sw[c][a] = s;
+                        }
+                        shape.for_each_node_n::<N>(&strides, |node, phi, grad| {
+                            let o = &mut local[node - first];
+                            o[0] += rw * phi;
+                            for a in 0..D {
+                                let mut internal = 0.0;
+                                for c in 0..D {
+                                    internal += sw[a][c] * grad[c];
+                                }
+                                o[1 + a] -= internal;
+                            }
+                        });
+                    });
+                }
+            });
+    }
+
+    /// Fit and integrate the vector field `values` into `out`.
+    fn map_vector<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        values: &[Vec<f64>; D],
+        out: &mut [[f64; D]],
+    ) {
+        self.fit_vector(particles, cell_start, values);
+        with_fixed_support!(basis, N => self.integrate_vector::<B, N>(basis, out));
+    }
+}
+
+impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
+    fn name(&self) -> &'static str {
+        "tls"
+    }
+
+    fn particle_domains(&self) -> &Option<[f64; D]> {
+        &self.particle_domains
+    }
+
+    fn map_mass_and_force<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        body: TensorBody<'_, D>,
+        fields: &mut TensorGridFields<D>,
+    ) {
+        self.update_boxes(particles, cell_start);
+        self.update_totals(particles, cell_start, |p| {
+            [particles.mass[p], 0.0, 0.0, 0.0]
+        });
+        self.fit_stress_and_density(particles, cell_start);
+        let mut mass_force = std::mem::take(&mut fields.mass_force);
+        with_fixed_support!(basis, N => {
+            self.integrate_mass_and_force::<B, N>(basis, &mut mass_force)
+        });
+        for ((m, f), mf) in fields
+            .mass
+            .iter_mut()
+            .zip(fields.force.iter_mut())
+            .zip(&mass_force)
+        {
+            *m = mf[0];
+            f.copy_from_slice(&mf[1..=D]);
+        }
+        fields.mass_force = mass_force;
+        match body {
+            TensorBody::Uniform(b) => {
+                if b.iter().any(|&b| b != 0.0) {
+                    for (f, &m) in fields.force.iter_mut().zip(&fields.mass) {
+                        for a in 0..D {
+                            f[a] += b[a] * m;
+                        }
+                    }
+                }
+            }
+            TensorBody::PerParticle(b) => {
+                // int (rho b)_hat phi, mapped like a momentum.
+                let mut external = std::mem::take(&mut self.body_force);
+                self.map_vector(basis, particles, cell_start, b, &mut external);
+                for (f, e) in fields.force.iter_mut().zip(&external) {
+                    for a in 0..D {
+                        f[a] += e[a];
+                    }
+                }
+                self.body_force = external;
+            }
+        }
+    }
+
+    fn map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        fields: &mut TensorGridFields<D>,
+    ) {
+        self.map_vector(
+            basis,
+            particles,
+            cell_start,
+            &particles.v,
+            &mut fields.momentum,
+        );
+    }
+
+    fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &mut TensorParticles<D>,
+        cell_start: &[usize],
+        dt: f64,
+        fields: &mut TensorGridFields<D>,
+    ) -> [f64; 4] {
+        let sums = with_fixed_support!(basis, N => update_velocities::<D, B, N>(
+            basis,
+            &self.particle_domains,
+            particles,
+            dt,
+            &fields.acceleration,
+        ));
+        self.map_momentum(basis, particles, cell_start, fields);
+        sums
+    }
+
+    fn remedies(&self) -> RemedyCounts {
+        self.remedies
+    }
+}
+
+/// `v_p += dt sum_I phi_I(x_p) a_I` for every particle, in parallel over fixed chunks;
+/// returns `sum_p m_p v_p` and `sum_p m_p |v_p|` of the updated velocities (per chunk, then
+/// in chunk order).
+fn update_velocities<const D: usize, B: Basis, const N: usize>(
+    basis: &TensorBasis<D, B>,
+    domains: &Option<[f64; D]>,
+    particles: &mut TensorParticles<D>,
+    dt: f64,
+    acceleration: &[[f64; D]],
+) -> [f64; 4] {
+    let n = particles.len();
+    let strides = *basis.strides();
+    let ranges: Vec<Range<usize>> = (0..n)
+        .step_by(PARTICLES_PER_TASK)
+        .map(|s| s..(s + PARTICLES_PER_TASK).min(n))
+        .collect();
+    let TensorParticles {
+        x,
+        v,
+        mass,
+        deformation_gradient,
+        ..
+    } = particles;
+    let (x, mass, f) = (&*x, &*mass, &*deformation_gradient);
+    let sums: Vec<[f64; 4]> = split_components(v, &ranges)
+        .into_par_iter()
+        .zip(ranges.par_iter())
+        .map(|(v, range)| {
+            let mut shape = TensorShape::<D>::default();
+            let mut sum = [0.0; 4];
+            for k in range.clone() {
+                let position: [f64; D] = std::array::from_fn(|a| x[a][k]);
+                let half = match domains {
+                    Some(l0) => std::array::from_fn(|a| l0[a] * f[a][a][k].abs()),
+                    None => [0.0; D],
+                };
+                basis.eval_particle(basis.grid.axis_cells(position), position, half, &mut shape);
+                let dv = shape.interpolate_n::<N>(&strides, acceleration);
+                let mut speed2 = 0.0;
+                for a in 0..D {
+                    let velocity = &mut v[a][k - range.start];
+                    *velocity += dt * dv[a];
+                    sum[a] += mass[k] * *velocity;
+                    speed2 += *velocity * *velocity;
+                }
+                sum[3] += mass[k] * speed2.sqrt();
+            }
+            sum
+        })
+        .collect();
+    let mut total = [0.0; 4];
+    for s in &sums {
+        for (t, s) in total.iter_mut().zip(s) {
+            *t += s;
+        }
+    }
+    total
+}
+
+/// `sum_k a_k t_k` over the terms of total degree 2.
+#[inline(always)]
+fn dot<const D: usize>(a: &[f64; MAX_TERMS], t: &[f64; MAX_TERMS]) -> f64 {
+    let mut value = a[0];
+    for k in 1..terms(D, 2) {
+        value += a[k] * t[k];
+    }
+    value
+}
+
+/// `prod_a (hi_a - lo_a)`.
+#[inline]
+fn box_volume<const D: usize>(lo: &[f64; D], hi: &[f64; D]) -> f64 {
+    let mut v = hi[0] - lo[0];
+    for a in 1..D {
+        v *= hi[a] - lo[a];
+    }
+    v
+}
+
+/// Axis indices of lexicographic cell `cell`.
+#[inline]
+fn cell_axes<const D: usize>(grid: &TensorGrid<D>, cell: usize) -> [usize; D] {
+    let mut rest = cell;
+    std::array::from_fn(|a| {
+        let n = grid.axes[a].cells;
+        let i = rest % n;
+        rest /= n;
+        i
+    })
+}
+
+/// Scale the non-constant coefficients of a density fit towards its mean where it is
+/// negative at a Gauss point of the box; 1 if it did.
+fn limit_density<const D: usize>(
+    taylor: &TaylorBox<D>,
+    rule: &BoxRule<D>,
+    a: &mut [f64; MAX_TERMS],
+) -> u64 {
+    if a[0] <= 0.0 {
+        return 0;
+    }
+    let mut lowest = f64::INFINITY;
+    rule.for_each(|x, _| {
+        let value = dot::<D>(a, &taylor.terms(x));
+        lowest = if value < lowest { value } else { lowest };
+    });
+    if lowest >= 0.0 {
+        return 0;
+    }
+    let theta = a[0] / (a[0] - lowest);
+    for c in a.iter_mut().skip(1) {
+        *c *= theta;
+    }
+    1
+}
+
+/// Add the shares of `q` of a particle at `x` with half-lengths `half` in the cell with
+/// axis indices `index` to `out[k]` (`k`: base-3 offset digits `o_a + 1`): along each axis
+/// the 1D rule (the domain `x_a +- min(l_a, h_a)` clipped to the grid, split in
+/// proportion to its overlap with the left neighbour, the cell and the right neighbour;
+/// the kept part is `q` minus the others, so the parts add up to `q`).
+fn split_shares<const D: usize>(
+    grid: &TensorGrid<D>,
+    index: [usize; D],
+    x: [f64; D],
+    half: [f64; D],
+    q: [f64; 4],
+    out: &mut [[f64; 4]],
+) {
+    let centre: usize = (0..D).map(|a| 3usize.pow(a as u32)).sum();
+    let mut parts = [[0.0; 4]; 27];
+    parts[centre] = q;
+    for a in 0..D {
+        let g = &grid.axes[a];
+        let left = g.cell_left(index[a]);
+        let right = left + g.h;
+        if x[a] - half[a] >= left && x[a] + half[a] <= right {
+            continue;
+        }
+        let l = half[a].min(g.h);
+        let (lo, hi) = (
+            (x[a] - l).max(g.origin),
+            (x[a] + l).min(g.origin + g.length),
+        );
+        let step = 3usize.pow(a as u32);
+        let (over_left, over_right) = ((left - lo).max(0.0), (hi - right).max(0.0));
+        for k in 0..3usize.pow(D as u32) {
+            // Parts still centred along axis a (every part so far).
+            if (k / step) % 3 != 1 {
+                continue;
+            }
+            let part = parts[k];
+            let mut kept = part;
+            for c in 0..4 {
+                let per_length = part[c] / (hi - lo);
+                let to_left = over_left * per_length;
+                let to_right = over_right * per_length;
+                parts[k - step][c] = to_left;
+                parts[k + step][c] = to_right;
+                kept[c] = part[c] - to_left - to_right;
+            }
+            parts[k] = kept;
+        }
+    }
+    for (o, p) in out.iter_mut().zip(&parts) {
+        for c in 0..4 {
+            o[c] += p[c];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{BSplineBasis, GimpBasis, LinearBasis};
+    use proptest::prelude::*;
+
+    /// Particles of volume `volume` at `x` (2D) with velocities and stresses from `seed`.
+    fn particles(x: [Vec<f64>; 2], grid: &TensorGrid<2>, seed: &[f64]) -> TensorParticles<2> {
+        let n = x[0].len();
+        let mut p =
+            TensorParticles::<2>::at_rest(x, vec![0.01; n], 2.0, |x| grid.cell_of(x).unwrap_or(0));
+        for k in 0..n {
+            let s = seed[k % seed.len()];
+            p.v[0][k] = s;
+            p.v[1][k] = 1.0 - 2.0 * s * s;
+            p.stress[0][k] = 3.0 * s;
+            p.stress[3][k] = s - 0.5;
+            p.mass[k] *= 1.0 + s.abs();
+            p.density[k] = p.mass[k] / p.volume[k];
+        }
+        p
+    }
+
+    fn check<B: Basis + Clone>(
+        basis: TensorBasis<2, B>,
+        mut p: TensorParticles<2>,
+        totals: CellTotals,
+        domain: bool,
+    ) -> std::result::Result<(), TestCaseError> {
+        let (mut start, mut order) = (Vec::new(), Vec::new());
+        p.sort_by_cell(basis.grid.num_cells(), &mut start, &mut order);
+        let mut mapping = TensorTlsMapping::new(&basis, 4, totals, [0.02, 0.02], domain).unwrap();
+        let mut fields = TensorGridFields::new(basis.num_dofs());
+        mapping.map_mass_and_force(
+            &basis,
+            &p,
+            &start,
+            TensorBody::Uniform([0.0; 2]),
+            &mut fields,
+        );
+        mapping.map_momentum(&basis, &p, &start, &mut fields);
+        let total: f64 = p.mass.iter().sum();
+        let grid_mass: f64 = fields.mass.iter().sum();
+        prop_assert!(
+            (grid_mass - total).abs() <= 1e-13 * total,
+            "mass {grid_mass} vs {total}"
+        );
+        prop_assert!(
+            fields.mass.iter().all(|&m| m >= -1e-15 * total),
+            "negative mass"
+        );
+        let scale: f64 = (0..p.len())
+            .map(|k| p.mass[k] * (p.v[0][k].hypot(p.v[1][k])))
+            .sum();
+        for a in 0..2 {
+            let particle: f64 = (0..p.len()).map(|k| p.mass[k] * p.v[a][k]).sum();
+            let grid: f64 = fields.momentum.iter().map(|m| m[a]).sum();
+            prop_assert!(
+                (grid - particle).abs() <= 1e-13 * scale,
+                "momentum {a}: {grid} vs {particle}"
+            );
+        }
+        prop_assert!(fields
+            .force
+            .iter()
+            .all(|f| f[0].is_finite() && f[1].is_finite()));
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Random layouts with sparse and degenerate cells (1–3 particles, a row of
+        /// particles on one line): mass and both momentum components are conserved to
+        /// round-off, masses stay non-negative, nothing is NaN.
+        #[test]
+        fn random_and_degenerate_layouts_conserve(
+            xs in proptest::collection::vec((0.0f64..1.0, 0.0f64..1.0), 1..40),
+            line_y in 0.05f64..0.95,
+            line in proptest::collection::vec(0.0f64..1.0, 0..12),
+            seed in proptest::collection::vec(-1.0f64..1.0, 1..8),
+            order in 1usize..4,
+        ) {
+            let grid = TensorGrid::new([1.0, 1.0], [5, 4]);
+            let mut x = [Vec::new(), Vec::new()];
+            for (a, b) in &xs {
+                x[0].push(*a);
+                x[1].push(*b);
+            }
+            for a in &line {
+                x[0].push(*a);
+                x[1].push(line_y);
+            }
+            for totals in [CellTotals::Domains, CellTotals::Centres] {
+                let b = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
+                check(b, particles(x.clone(), &grid, &seed), totals, false)?;
+                check(TensorBasis::new(grid, LinearBasis::new), particles(x.clone(), &grid, &seed), totals, false)?;
+                check(TensorBasis::new(grid, GimpBasis::new), particles(x.clone(), &grid, &seed), totals, true)?;
+            }
+        }
+    }
+
+    #[test]
+    fn shares_add_up_to_the_particle_quantity() {
+        let grid = TensorGrid::new([1.0, 1.0, 1.0], [4, 4, 4]);
+        let mut out = vec![[0.0; 4]; 27];
+        // Near the corner of cell (1, 1, 1): its domain reaches into 7 neighbours.
+        split_shares(
+            &grid,
+            [1, 1, 1],
+            [0.26, 0.49, 0.27],
+            [0.05; 3],
+            [1.0, 2.0, -3.0, 0.0],
+            &mut out,
+        );
+        let sum: Vec<f64> = (0..3).map(|c| out.iter().map(|o| o[c]).sum()).collect();
+        assert!(
+            (sum[0] - 1.0).abs() < 1e-15
+                && (sum[1] - 2.0).abs() < 1e-15
+                && (sum[2] + 3.0).abs() < 1e-15
+        );
+        let touched = out.iter().filter(|o| o[0] != 0.0).count();
+        assert_eq!(touched, 8);
+        // Kept part: the overlap fractions of the cell along x, y, z.
+        let kept = out[13][0];
+        assert!((kept - 0.6 * 0.6 * 0.7).abs() < 1e-12, "{kept}");
+    }
+}
