@@ -46,7 +46,7 @@ fn group(c: &mut Criterion, dim: usize, order: usize, cells: usize, density: Stu
             continue;
         }
         let config = SolverConfig {
-            kind,
+            kind: Some(kind),
             smoother: tlsmpm::config::Smoother::SymmetricGaussSeidel,
             ..SolverConfig::default()
         };

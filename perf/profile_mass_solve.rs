@@ -159,7 +159,7 @@ usage: profile_mass_solve [--dim D] [--order P] [--cells N] [--solver KIND]
             .map_err(|e| format!("assembling the mass matrix: {e}"))?;
         let kind = options.solver;
         let config = SolverConfig {
-            kind,
+            kind: Some(kind),
             ..Default::default()
         };
         let mut solver = build_solver(&config, &problem.geometry)

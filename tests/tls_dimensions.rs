@@ -224,3 +224,134 @@ fn tls_results_are_bitwise_identical_on_one_and_three_threads() {
         );
     }
 }
+
+#[test]
+fn the_consistent_mass_conserves_mass_and_momentum_to_round_off() {
+    for basis in [
+        "method.basis=\"linear\"",
+        "method.basis=\"gimp\"",
+        "method.basis=\"bspline\"",
+    ] {
+        let consistent = [
+            "method.reconstruction=\"tls\"",
+            "method.mass=\"consistent\"",
+        ];
+        let mut sets = vec![basis, "grid.cells=10", "time.end=0.003"];
+        sets.extend(consistent);
+        let sim = run_nd::<2>("axis_aligned_mms", &sets, 2);
+        assert!(sim.grid_crossings > 0, "{sets:?}: needs grid crossings");
+        assert!(
+            sim.max_mass_error <= 1e-13,
+            "{sets:?}: mass {:e}",
+            sim.max_mass_error
+        );
+        assert!(
+            sim.max_momentum_error <= 1e-13,
+            "{sets:?}: momentum {:e}",
+            sim.max_momentum_error
+        );
+        let mut sets3 = vec![
+            basis,
+            "grid.cells=4",
+            "time.end=0.001",
+            "problem.dim=3",
+            "particles.per_cell=8",
+        ];
+        sets3.extend(consistent);
+        let sim = run_nd::<3>("axis_aligned_mms", &sets3, 2);
+        assert!(
+            sim.max_mass_error <= 1e-13,
+            "{sets3:?}: mass {:e}",
+            sim.max_mass_error
+        );
+        assert!(
+            sim.max_momentum_error <= 1e-13,
+            "{sets3:?}: momentum {:e}",
+            sim.max_momentum_error
+        );
+    }
+}
+
+#[test]
+fn every_solver_kind_gives_the_same_particles() {
+    let run = |kind: &str| {
+        let key = format!("solver.kind=\"{kind}\"");
+        let sets = [
+            "method.reconstruction=\"tls\"",
+            "method.mass=\"consistent\"",
+            "grid.cells=10",
+            "time.end=0.004",
+            "solver.tolerance=1e-12",
+            key.as_str(),
+        ];
+        run_nd::<2>("axis_aligned_mms", &sets, 2)
+    };
+    let reference = run("direct");
+    let scale = reference.particles.u[0]
+        .iter()
+        .fold(0.0f64, |m, u| m.max(u.abs()));
+    for kind in ["cg", "pcg", "kron", "pmg_cg", "pmg"] {
+        let sim = run(kind);
+        let mut difference = 0.0f64;
+        for a in 0..2 {
+            for (u, r) in sim.particles.u[a].iter().zip(&reference.particles.u[a]) {
+                difference = difference.max((u - r).abs() / scale);
+            }
+        }
+        assert!(difference < 1e-8, "{kind}: {difference:e}");
+    }
+}
+
+#[test]
+fn consistent_mass_results_are_bitwise_identical_on_one_and_three_threads() {
+    let sets = [
+        "method.reconstruction=\"tls\"",
+        "method.mass=\"consistent\"",
+        "grid.cells=40",
+        "time.end=0.0003",
+    ];
+    let serial = run_nd::<2>("axis_aligned_mms", &sets, 1);
+    let parallel = run_nd::<2>("axis_aligned_mms", &sets, 3);
+    assert_eq!(bits(&serial.particles), bits(&parallel.particles), "2D");
+    let sets3 = [
+        "method.reconstruction=\"tls\"",
+        "method.mass=\"consistent\"",
+        "grid.cells=[6, 6, 8]",
+        "time.end=0.0002",
+        "problem.dim=3",
+        "particles.per_cell=8",
+    ];
+    let serial = run_nd::<3>("axis_aligned_mms", &sets3, 1);
+    let parallel = run_nd::<3>("axis_aligned_mms", &sets3, 3);
+    assert_eq!(bits(&serial.particles), bits(&parallel.particles), "3D");
+}
+
+#[test]
+fn consistent_mass_input_errors_name_the_key() {
+    let cases: [(&[&str], &str); 3] = [
+        (&["method.mass=\"consistent\""], "method.mass"),
+        (
+            &[
+                "method.reconstruction=\"tls\"",
+                "method.mass=\"consistent\"",
+                "solver.kind=\"banded\"",
+            ],
+            "solver.kind",
+        ),
+        (
+            &[
+                "method.reconstruction=\"tls\"",
+                "method.mass=\"consistent\"",
+                "solver.kind=\"kron\"",
+                "problem.dim=3",
+                "particles.per_cell=8",
+            ],
+            "solver.kind",
+        ),
+    ];
+    for (sets, key) in cases {
+        let s = scenario("axis_aligned_mms", sets);
+        let message = s.validate().expect_err("must be refused").to_string();
+        assert!(message.contains(key), "{sets:?}: {message}");
+    }
+}

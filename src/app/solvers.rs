@@ -110,7 +110,7 @@ pub fn build_solver(
     geometry: &SolverGeometry,
 ) -> Result<Box<dyn LinearSolver>> {
     let tolerance = config.tolerance;
-    Ok(match config.kind {
+    Ok(match config.kind() {
         SolverKind::Banded => Box::new(BandedCholesky::new()),
         // Sequential factorisation: faer's parallel supernodal path need not be bitwise
         // reproducible across thread counts.

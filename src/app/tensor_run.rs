@@ -5,13 +5,17 @@
 //! `stress_xx`. On a numerical failure everything computed is written before the error
 //! is returned, as in 1D.
 
+use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::app::RunOptions;
+use crate::config::MassKind;
 use crate::config::{
     integer_root, BasisKind, MaterialModel, ReconstructionKind, Scenario, TimeStep,
     VelocityReference,
 };
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, GimpBasis, Grid, LinearBasis, TensorBasis};
+use crate::linalg::assembly::SplineSpace;
+use crate::linalg::CoarseOperators;
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorDirectMapping;
 use crate::mapping::tensor_tls::TensorTlsMapping;
@@ -25,8 +29,8 @@ use crate::particles::tensor::{stress_index, STRESS_COMPONENTS};
 use crate::particles::TensorParticles;
 use crate::physics::tensor::stability::tensor_critical_time_step;
 use crate::physics::tensor::{
-    lame, LinearElasticTensor, NeoHookeanTensor, NodeConstraints, TensorMaterial, TensorSimulation,
-    TensorStepper, TimeStepping,
+    lame, LinearElasticTensor, NeoHookeanTensor, NodeConstraints, TensorMassSolve, TensorMaterial,
+    TensorSimulation, TensorStepper, TimeStepping,
 };
 use crate::problems::tensor::TensorProblem;
 use crate::problems::Field;
@@ -117,6 +121,14 @@ pub fn build_tensor_simulation<const D: usize>(
     Ok((problem, simulation))
 }
 
+/// The mass of the acceleration solve in 2D / 3D: `method.acceleration_mass`, default
+/// lumped. (The consistent matrix in both solves diverges on the 2D manufactured solution
+/// with 4 particles per cell after a few hundred steps, lumped acceleration with a
+/// consistent velocity solve is stable and the most accurate: `docs/tls.md`.)
+fn tensor_acceleration_mass(method: &crate::config::MethodConfig) -> MassKind {
+    method.acceleration_mass.unwrap_or(MassKind::Lumped)
+}
+
 /// Order 1 exists for every grid (only reached if a validated order were refused).
 fn unreachable_basis(g: Grid) -> BSplineBasis {
     match BSplineBasis::new(g, 1) {
@@ -173,12 +185,26 @@ impl Parts<'_> {
                     .ok_or_else(|| {
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                     })?;
-                    self.stepper(basis, mapping, problem, &mut particles)
+                    let acceleration = tensor_acceleration_mass(method);
+                    if acceleration == MassKind::Consistent || method.mass == MassKind::Consistent {
+                        let mapping = mapping.with_consistent_mass(&basis).ok_or_else(|| {
+                            Error::invalid(
+                                "method.order",
+                                method.order,
+                                "too large a support for the consistent mass in this dimension",
+                            )
+                        })?;
+                        let solve = self.mass_solve(&basis, problem)?;
+                        let stepper = self.stepper(basis, mapping, problem, &mut particles);
+                        Box::new(stepper.with_mass_solve(solve))
+                    } else {
+                        Box::new(self.stepper(basis, mapping, problem, &mut particles))
+                    }
                 }
                 _ => {
                     let mapping =
                         TensorDirectMapping::new(&basis, particle_domain.then_some(half_length0));
-                    self.stepper(basis, mapping, problem, &mut particles)
+                    Box::new(self.stepper(basis, mapping, problem, &mut particles))
                 }
             };
         Ok(TensorSimulation::new(
@@ -195,16 +221,56 @@ impl Parts<'_> {
         mapping: M,
         problem: &TensorProblem<D>,
         particles: &mut TensorParticles<D>,
-    ) -> Box<dyn crate::physics::tensor::TensorTimeStepper<D>> {
+    ) -> TensorStepper<D, B, M> {
         let constraints = NodeConstraints::new(&basis, &problem.faces);
-        Box::new(TensorStepper::new(
+        TensorStepper::new(
             basis,
             mapping,
             self.material,
             self.scenario.method.scheme,
             constraints,
             particles,
-        ))
+        )
+    }
+
+    /// The consistent-mass solves: `solver.kind` (2D / 3D default
+    /// [`crate::config::tensor_default_solver`]) on the B-spline spaces of the axes (order
+    /// 1 for hats and GIMP).
+    fn mass_solve<const D: usize, B: Basis>(
+        &self,
+        basis: &TensorBasis<D, B>,
+        problem: &TensorProblem<D>,
+    ) -> Result<TensorMassSolve<D>> {
+        let method = &self.scenario.method;
+        let order = match method.basis {
+            BasisKind::Bspline => method.order,
+            _ => 1,
+        };
+        let grid = basis.grid;
+        let directions = (0..D)
+            .map(|a| {
+                let g = grid.axes[a];
+                SplineSpace::new(order, g.cells, g.length).ok_or_else(|| {
+                    Error::invalid("method.order", order, "no B-spline space of this order")
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let geometry = SolverGeometry {
+            directions,
+            boundary_dropped: false,
+            coarse_operators: CoarseOperators::Galerkin,
+            density: None,
+        };
+        let mut config = self.scenario.solver.clone();
+        config.kind = Some(config.tensor_kind(D));
+        let constraints = NodeConstraints::new(basis, &problem.faces);
+        TensorMassSolve::new(
+            tensor_acceleration_mass(method),
+            method.mass,
+            basis.num_dofs(),
+            &constraints,
+            || build_solver(&config, &geometry),
+        )
     }
 }
 
@@ -456,10 +522,13 @@ fn write_outputs<const D: usize>(
             liquid_max_rel_momentum_error: None,
         },
         grid_crossings: simulation.grid_crossings,
-        solver: SolverSummary {
-            kind: "lumped".into(),
-            total_iterations: 0,
-            max_iterations: 0,
+        solver: {
+            let (kind, total_iterations, max_iterations) = simulation.stepper.solver_totals();
+            SolverSummary {
+                kind: kind.into(),
+                total_iterations,
+                max_iterations,
+            }
         },
         reconstruction_remedies: simulation.stepper.remedies(),
         config: scenario.clone(),

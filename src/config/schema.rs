@@ -652,8 +652,10 @@ pub const MAX_SMOOTHING_SWEEPS: usize = 1000;
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverConfig {
-    #[serde(default)]
-    pub kind: SolverKind,
+    /// `None`: the default of the dimension ([`SolverConfig::kind`]); written back as the
+    /// 1D default `"banded"` when not given, as before.
+    #[serde(default, serialize_with = "serialize_kind")]
+    pub kind: Option<SolverKind>,
     /// Relative residual `||r|| / ||r0||` at which iterative solvers stop.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
@@ -668,6 +670,36 @@ pub struct SolverConfig {
 fn default_tolerance() -> f64 {
     1e-8
 }
+
+fn serialize_kind<S: serde::Serializer>(
+    kind: &Option<SolverKind>,
+    serializer: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    kind.unwrap_or_default().serialize(serializer)
+}
+
+/// The solver of 2D / 3D consistent-mass runs when `solver.kind` is not given: the
+/// fastest measured inside a run (`docs/tls.md`): `kron` in 2D, `direct` in 3D (where
+/// `kron` and p-multigrid are not available).
+pub fn tensor_default_solver(dim: usize) -> SolverKind {
+    if dim == 2 {
+        SolverKind::Kron
+    } else {
+        SolverKind::Direct
+    }
+}
+
+impl SolverConfig {
+    /// `solver.kind` in 1D (default `banded`).
+    pub fn kind(&self) -> SolverKind {
+        self.kind.unwrap_or_default()
+    }
+
+    /// `solver.kind` in 2D / 3D (default [`tensor_default_solver`]).
+    pub fn tensor_kind(&self, dim: usize) -> SolverKind {
+        self.kind.unwrap_or_else(|| tensor_default_solver(dim))
+    }
+}
 fn default_smooth() -> usize {
     8
 }
@@ -675,7 +707,7 @@ fn default_smooth() -> usize {
 impl Default for SolverConfig {
     fn default() -> Self {
         Self {
-            kind: SolverKind::default(),
+            kind: None,
             tolerance: default_tolerance(),
             smoother: Smoother::default(),
             pre_smooth: default_smooth(),

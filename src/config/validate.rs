@@ -184,7 +184,7 @@ impl Scenario {
                 format!("more than {MAX_SUBPOINTS} sub-points per particle"),
             ));
         }
-        if matches!(self.solver.kind, SolverKind::Pmg | SolverKind::PmgCg) {
+        if matches!(self.solver.kind(), SolverKind::Pmg | SolverKind::PmgCg) {
             let sweeps = self.solver.pre_smooth + self.solver.post_smooth;
             if sweeps == 0 || sweeps > MAX_SMOOTHING_SWEEPS {
                 return Err(Error::invalid(
@@ -193,12 +193,12 @@ impl Scenario {
                     format!(
                         "pre_smooth + post_smooth (= {sweeps}) must be between 1 and \
                          {MAX_SMOOTHING_SWEEPS} for solver.kind = \"{}\"",
-                        self.solver.kind.name()
+                        self.solver.kind().name()
                     ),
                 ));
             }
         }
-        if self.solver.kind == SolverKind::PmgCg
+        if self.solver.kind() == SolverKind::PmgCg
             && self.solver.pre_smooth != self.solver.post_smooth
         {
             return Err(Error::invalid(

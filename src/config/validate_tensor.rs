@@ -230,14 +230,30 @@ impl Scenario {
                 )
             }
         }
-        if self.method.mass == MassKind::Consistent
-            || self.method.acceleration_mass == Some(MassKind::Consistent)
+        if (self.method.mass == MassKind::Consistent
+            || self.method.acceleration_mass == Some(MassKind::Consistent))
+            && self.method.reconstruction != ReconstructionKind::Tls
         {
             return Err(Error::invalid(
                 "method.mass",
                 "\"consistent\"",
-                "the consistent mass in 2D / 3D is not available in this version (lumped)",
+                "the consistent mass in 2D / 3D needs method.reconstruction = \"tls\"",
             ));
+        }
+        match self.solver.kind {
+            Some(SolverKind::Banded) => {
+                return one_d_only("solver.kind", "\"banded\"", "the banded Cholesky")
+            }
+            Some(kind @ (SolverKind::Kron | SolverKind::Pmg | SolverKind::PmgCg))
+                if self.problem.dim == 3 =>
+            {
+                return Err(Error::invalid(
+                    "solver.kind",
+                    format!("\"{}\"", kind.name()),
+                    "is available in 1D and 2D (use cg, pcg or direct in 3D)",
+                ))
+            }
+            _ => {}
         }
         if self.method.subpoints != 0 {
             return one_d_only(

@@ -20,6 +20,7 @@ pub(crate) mod spectrum;
 pub mod subpoints;
 pub mod tensor;
 pub mod tensor_direct;
+pub mod tensor_mass;
 pub mod tensor_scatter;
 pub mod tensor_tls;
 pub mod tls;

@@ -44,11 +44,13 @@
 
 use super::tensor::TensorMapping;
 use super::tensor_direct::{half_lengths, split_components, TensorBody, TensorGridFields};
+use super::tensor_mass::{StencilAssembly, MAX_SUPPORT_NODES};
 use super::tensor_scatter::TensorScatter;
 use super::RemedyCounts;
 use crate::config::CellTotals;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorGrid, TensorShape};
+use crate::linalg::CsrMatrix;
 use crate::numerics::gauss::{GaussRule, MAX_POINTS};
 use crate::numerics::taylor_nd::{add_rhs, fit_degree, terms, NormalMatrix, TaylorBox, MAX_TERMS};
 use crate::particles::tensor::stress_index;
@@ -148,6 +150,9 @@ pub struct TensorTlsMapping<const D: usize> {
     vector_scatter: TensorScatter<D>,
     body_force: Vec<[f64; D]>,
     remedies: RemedyCounts,
+    /// The consistent mass matrix (`method.mass` or `method.acceleration_mass` =
+    /// `"consistent"`).
+    consistent: Option<StencilAssembly<D>>,
 }
 
 impl<const D: usize> TensorTlsMapping<D> {
@@ -184,7 +189,45 @@ impl<const D: usize> TensorTlsMapping<D> {
             vector_scatter: TensorScatter::new(basis),
             body_force: vec![[0.0; D]; basis.num_dofs()],
             remedies: RemedyCounts::default(),
+            consistent: None,
         })
+    }
+
+    /// Also assemble the consistent mass matrix in every
+    /// [`TensorMapping::map_mass_and_force`]; `None` if the basis' support is too large
+    /// for the stencil assembly.
+    pub fn with_consistent_mass<B: Basis>(mut self, basis: &TensorBasis<D, B>) -> Option<Self> {
+        let reach = (0..D).map(|a| basis.axis(a).max_window()).max()? - 1;
+        if (reach + 1).pow(D as u32) > MAX_SUPPORT_NODES {
+            return None;
+        }
+        self.consistent = Some(StencilAssembly::new(basis, reach));
+        Some(self)
+    }
+
+    /// `M^C = sum_g rho_hat w_g phi phi^T` into the stencil assembly.
+    fn assemble_consistent_mass<B: Basis>(&mut self, basis: &TensorBasis<D, B>) {
+        let Some(assembly) = self.consistent.as_mut() else {
+            return;
+        };
+        let strides = *basis.strides();
+        let (lo, hi, active, density, rule) =
+            (&self.lo, &self.hi, &self.active, &self.density, &self.rule);
+        assembly.assemble(|cells, rows| {
+            let mut shape = TensorShape::<D>::default();
+            for cell in cells {
+                if !active[cell] {
+                    continue;
+                }
+                let taylor = TaylorBox::new(lo[cell], hi[cell]);
+                let index = cell_axes(&basis.grid, cell);
+                BoxRule::new(rule, lo[cell], hi[cell]).for_each(|x, w| {
+                    basis.eval_particle(index, x, [0.0; D], &mut shape);
+                    let rw = dot::<D>(&density[cell], &taylor.terms(x)) * w;
+                    rows.add_outer(&shape, &strides, rw);
+                });
+            }
+        });
     }
 
     /// The active box `[lo, hi]` of `cell` in the last mapping (`None` if inactive).
@@ -572,6 +615,7 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
             f.copy_from_slice(&mf[1..=D]);
         }
         fields.mass_force = mass_force;
+        self.assemble_consistent_mass(basis);
         match body {
             TensorBody::Uniform(b) => {
                 if b.iter().any(|&b| b != 0.0) {
@@ -633,6 +677,10 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
 
     fn remedies(&self) -> RemedyCounts {
         self.remedies
+    }
+
+    fn consistent_mass(&self) -> Option<&CsrMatrix> {
+        self.consistent.as_ref().map(|a| &a.matrix)
     }
 }
 
@@ -932,5 +980,57 @@ mod tests {
         // Kept part: the overlap fractions of the cell along x, y, z.
         let kept = out[13][0];
         assert!((kept - 0.6 * 0.6 * 0.7).abs() < 1e-12, "{kept}");
+    }
+}
+
+#[cfg(test)]
+mod consistent_tests {
+    use super::*;
+    use crate::grid::BSplineBasis;
+
+    #[test]
+    fn consistent_mass_is_symmetric_and_its_row_sums_are_the_lumped_masses() {
+        let grid = TensorGrid::new([1.0, 1.0], [6, 5]);
+        let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, 2).unwrap());
+        let mut x = [Vec::new(), Vec::new()];
+        for k in 0..90 {
+            let t = k as f64 * 0.618_033_988_75;
+            x[0].push(t.fract() * 0.8 + 0.1);
+            x[1].push((t * 1.7).fract() * 0.9 + 0.05);
+        }
+        let n = x[0].len();
+        let mut p =
+            TensorParticles::<2>::at_rest(x, vec![0.011; n], 2.0, |x| grid.cell_of(x).unwrap_or(0));
+        for k in 0..n {
+            p.density[k] *= 1.0 + 0.3 * (k as f64).sin();
+        }
+        let (mut start, mut order) = (Vec::new(), Vec::new());
+        p.sort_by_cell(grid.num_cells(), &mut start, &mut order);
+        let mut mapping =
+            TensorTlsMapping::new(&basis, 4, CellTotals::Domains, [0.04, 0.05], false)
+                .unwrap()
+                .with_consistent_mass(&basis)
+                .unwrap();
+        let mut fields = TensorGridFields::new(basis.num_dofs());
+        mapping.map_mass_and_force(
+            &basis,
+            &p,
+            &start,
+            TensorBody::Uniform([0.0; 2]),
+            &mut fields,
+        );
+        let m = mapping.consistent_mass().unwrap();
+        let dense = m.to_dense();
+        let largest = fields.mass.iter().copied().fold(0.0, f64::max);
+        for i in 0..m.rows {
+            let row: f64 = dense[i].iter().sum();
+            assert!((row - fields.mass[i]).abs() <= 1e-14 * largest, "row {i}");
+            for j in 0..m.rows {
+                assert!(
+                    (dense[i][j] - dense[j][i]).abs() <= 1e-15 * largest,
+                    "{i} {j}"
+                );
+            }
+        }
     }
 }

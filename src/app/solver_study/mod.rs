@@ -326,7 +326,7 @@ fn time_solve(
     options: &SolverStudyOptions,
 ) -> Result<(crate::linalg::SolveStats, f64)> {
     let config = SolverConfig {
-        kind,
+        kind: Some(kind),
         ..options.config.clone()
     };
     let mut solver = build_solver(&config, &problem.geometry)?;

@@ -46,6 +46,9 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
     fn wave_modulus(&self) -> f64;
     /// Remedies of degenerate reconstruction fits so far.
     fn remedies(&self) -> RemedyCounts;
+    /// The mass solves so far: `solver.kind` (or `"lumped"`), total and largest
+    /// iteration count per solve.
+    fn solver_totals(&self) -> (&'static str, usize, usize);
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
@@ -72,6 +75,12 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
     }
     fn remedies(&self) -> RemedyCounts {
         self.mapping.remedies()
+    }
+    fn solver_totals(&self) -> (&'static str, usize, usize) {
+        match &self.mass_solve {
+            Some(s) => (s.name(), s.total_iterations, s.max_iterations),
+            None => ("lumped", 0, 0),
+        }
     }
 }
 

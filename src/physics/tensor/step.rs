@@ -16,7 +16,9 @@
 //! the components.
 
 use super::boundary::NodeConstraints;
+use super::mass::TensorMassSolve;
 use super::material::{LinearElasticTensor, NeoHookeanTensor, TensorLaw, TensorMaterial};
+use crate::config::MassKind;
 use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::tensor::with_fixed_support;
@@ -51,6 +53,8 @@ pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorD
     pub constraints: NodeConstraints<D>,
     pub fields: TensorGridFields<D>,
     pub cell_start: Vec<usize>,
+    /// Consistent-mass solves (`None`: lumped).
+    pub mass_solve: Option<TensorMassSolve<D>>,
     order: Vec<usize>,
     total_mass: f64,
 }
@@ -73,12 +77,19 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             scheme,
             constraints,
             cell_start: Vec::new(),
+            mass_solve: None,
             order: Vec::new(),
             total_mass: deterministic_sum(particles.len(), |p| particles.mass[p]),
         };
         let cells = stepper.basis.grid.num_cells();
         particles.sort_by_cell(cells, &mut stepper.cell_start, &mut stepper.order);
         stepper
+    }
+
+    /// Solve with the consistent mass (the mapping must assemble it).
+    pub fn with_mass_solve(mut self, mass_solve: TensorMassSolve<D>) -> Self {
+        self.mass_solve = Some(mass_solve);
+        self
     }
 
     /// Advance `particles` by `dt` with body force `body`; `step` and `time` label
@@ -110,8 +121,22 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 .map_momentum(&self.basis, particles, &self.cell_start, fields);
             momentum_error = particle_momentum_error(particles, &fields.momentum);
         }
+        if let (Some(solve), Some(matrix)) = (&mut self.mass_solve, self.mapping.consistent_mass())
+        {
+            solve.prepare(&fields.mass, matrix);
+        }
+        let (consistent_acceleration, consistent_velocity) = match &self.mass_solve {
+            Some(s) => (
+                s.acceleration == MassKind::Consistent,
+                s.velocity == MassKind::Consistent,
+            ),
+            None => (false, false),
+        };
         // 2. Accelerations.
-        divide_by_mass(&fields.mass, &fields.force, &mut fields.acceleration);
+        match &mut self.mass_solve {
+            Some(solve) if consistent_acceleration => solve.accelerations(fields)?,
+            _ => divide_by_mass(&fields.mass, &fields.force, &mut fields.acceleration),
+        }
         self.constraints.apply(&mut fields.acceleration);
         // 3. Grid velocities.
         let mut musl_momentum = None;
@@ -124,10 +149,16 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                     dt,
                     fields,
                 ));
-                divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity);
+                match &mut self.mass_solve {
+                    Some(solve) if consistent_velocity => solve.velocities(fields)?,
+                    _ => divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity),
+                }
             }
             Scheme::Usl => {
-                divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity);
+                match &mut self.mass_solve {
+                    Some(solve) if consistent_velocity => solve.velocities(fields)?,
+                    _ => divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity),
+                }
                 for (v, a) in fields.velocity.iter_mut().zip(&fields.acceleration) {
                     for c in 0..D {
                         v[c] += dt * a[c];
