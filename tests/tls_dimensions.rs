@@ -4,55 +4,8 @@
 
 mod common;
 
-use common::{pool, scenario};
-use tlsmpm::app::build_simulation;
-use tlsmpm::app::tensor_run::build_tensor_simulation;
-use tlsmpm::particles::{Particles, TensorParticles};
-use tlsmpm::physics::tensor::TensorSimulation;
-
-fn run_1d(name: &str, sets: &[&str]) -> Particles {
-    let s = scenario(name, sets);
-    let (problem, mut sim) = build_simulation(&s, false).expect("build 1D");
-    let steps = s.n_steps();
-    pool(2)
-        .install(|| sim.run(steps, &|t| problem.body_acceleration(t), &mut |_| Ok(())))
-        .expect("1D run");
-    sim.particles
-}
-
-fn run_nd<const D: usize>(name: &str, sets: &[&str], threads: usize) -> TensorSimulation<D> {
-    let s = scenario(name, sets);
-    let (problem, mut sim) = build_tensor_simulation::<D>(&s, false).expect("build 2D/3D");
-    pool(threads)
-        .install(|| sim.run(&problem, &mut |_| Ok(true)))
-        .expect("2D/3D run");
-    sim
-}
-
-/// Largest difference of `u_x`, `sigma_xx` (relative to the largest 1D magnitude) between
-/// the 1D particle at `X` and every extruded particle with the same `X`, and the largest
-/// transverse displacement.
-fn cross_dimension_difference<const D: usize>(
-    one: &Particles,
-    many: &TensorParticles<D>,
-) -> (f64, f64, f64) {
-    let scale_u = one.u.iter().fold(0.0f64, |m, u| m.max(u.abs()));
-    let scale_s = one.stress.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-    let mut by_x0 = std::collections::HashMap::new();
-    for k in 0..one.len() {
-        by_x0.insert(one.x0[k].to_bits(), k);
-    }
-    let (mut du, mut ds, mut transverse) = (0.0f64, 0.0f64, 0.0f64);
-    for k in 0..many.len() {
-        let j = by_x0[&many.x0[0][k].to_bits()];
-        du = du.max((many.u[0][k] - one.u[j]).abs() / scale_u);
-        ds = ds.max((many.stress[0][k] - one.stress[j]).abs() / scale_s);
-        for a in 1..D {
-            transverse = transverse.max(many.u[a][k].abs() / scale_u);
-        }
-    }
-    (du, ds, transverse)
-}
+use common::scenario;
+use common::tensor::{bits, cross_dimension_difference, run_1d, run_nd};
 
 /// The extruded column with TLS against the 1D TLS run. The full (stress) fits of the
 /// extruded layout equal the 1D fits, but a *conservative* quadratic fit in 2D / 3D also
@@ -79,7 +32,7 @@ fn extruded_column_with_tls_matches_the_1d_tls_run() {
     let one = run_1d("column_compaction", &one_sets);
     let mut two_sets = sets.to_vec();
     two_sets.extend(["particles.per_cell=16", "problem.dim=2"]);
-    let two = run_nd::<2>("column_compaction", &two_sets, 2);
+    let two = run_nd::<2>("column_compaction", &two_sets, 2).1;
     let (du, ds, dt) = cross_dimension_difference(&one, &two.particles);
     assert!(
         du < 2e-5 && ds < 2e-5 && dt < 1e-12,
@@ -90,7 +43,7 @@ fn extruded_column_with_tls_matches_the_1d_tls_run() {
     let mut one_short = one_sets.clone();
     one_short.push("time.end=0.005");
     let one = run_1d("column_compaction", &one_short);
-    let three = run_nd::<3>("column_compaction", &three_sets, 2);
+    let three = run_nd::<3>("column_compaction", &three_sets, 2).1;
     let (du, ds, dt) = cross_dimension_difference(&one, &three.particles);
     assert!(
         du < 1e-4 && ds < 1e-4 && dt < 1e-12,
@@ -118,7 +71,7 @@ fn generic_tls_at_d_1_equals_the_1d_tls() {
         ];
         sets.extend_from_slice(extra);
         let one = run_1d("column_compaction", &sets);
-        let generic = run_nd::<1>("column_compaction", &sets, 2);
+        let generic = run_nd::<1>("column_compaction", &sets, 2).1;
         let (du, ds, _) = cross_dimension_difference(&one, &generic.particles);
         assert!(du < 1e-12 && ds < 1e-12, "{extra:?}: {du:e} {ds:e}");
     }
@@ -145,7 +98,7 @@ fn tls_conserves_mass_and_momentum_to_round_off_for_every_basis() {
                     "grid.cells=12",
                     "time.end=0.004",
                 ];
-                let sim = run_nd::<2>("axis_aligned_mms", &sets, 2);
+                let sim = run_nd::<2>("axis_aligned_mms", &sets, 2).1;
                 assert!(sim.grid_crossings > 0, "{sets:?}: needs grid crossings");
                 assert!(
                     sim.max_mass_error <= 1e-13,
@@ -167,7 +120,7 @@ fn tls_conserves_mass_and_momentum_to_round_off_for_every_basis() {
                     "problem.dim=3",
                     "particles.per_cell=8",
                 ];
-                let sim = run_nd::<3>("axis_aligned_mms", &sets3, 2);
+                let sim = run_nd::<3>("axis_aligned_mms", &sets3, 2).1;
                 assert!(
                     sim.max_mass_error <= 1e-13,
                     "{sets3:?}: mass {:e}",
@@ -183,25 +136,14 @@ fn tls_conserves_mass_and_momentum_to_round_off_for_every_basis() {
     }
 }
 
-fn bits<const D: usize>(p: &TensorParticles<D>) -> Vec<u64> {
-    let mut out: Vec<u64> = p.id.iter().map(|&i| i as u64).collect();
-    for field in [&p.x[..], &p.u[..], &p.v[..], &p.stress[..]] {
-        for component in field {
-            out.extend(component.iter().map(|v| v.to_bits()));
-        }
-    }
-    out.extend(p.volume.iter().map(|v| v.to_bits()));
-    out
-}
-
 #[test]
 fn tls_results_are_bitwise_identical_on_one_and_three_threads() {
     for basis in ["linear", "bspline"] {
         let key = format!("method.basis=\"{basis}\"");
         let tls = "method.reconstruction=\"tls\"";
         let sets = [key.as_str(), tls, "grid.cells=40", "time.end=0.0005"];
-        let serial = run_nd::<2>("axis_aligned_mms", &sets, 1);
-        let parallel = run_nd::<2>("axis_aligned_mms", &sets, 3);
+        let serial = run_nd::<2>("axis_aligned_mms", &sets, 1).1;
+        let parallel = run_nd::<2>("axis_aligned_mms", &sets, 3).1;
         assert_eq!(
             bits(&serial.particles),
             bits(&parallel.particles),
@@ -215,8 +157,8 @@ fn tls_results_are_bitwise_identical_on_one_and_three_threads() {
             "problem.dim=3",
             "particles.per_cell=8",
         ];
-        let serial = run_nd::<3>("axis_aligned_mms", &sets3, 1);
-        let parallel = run_nd::<3>("axis_aligned_mms", &sets3, 3);
+        let serial = run_nd::<3>("axis_aligned_mms", &sets3, 1).1;
+        let parallel = run_nd::<3>("axis_aligned_mms", &sets3, 3).1;
         assert_eq!(
             bits(&serial.particles),
             bits(&parallel.particles),
@@ -238,7 +180,7 @@ fn the_consistent_mass_conserves_mass_and_momentum_to_round_off() {
         ];
         let mut sets = vec![basis, "grid.cells=10", "time.end=0.003"];
         sets.extend(consistent);
-        let sim = run_nd::<2>("axis_aligned_mms", &sets, 2);
+        let sim = run_nd::<2>("axis_aligned_mms", &sets, 2).1;
         assert!(sim.grid_crossings > 0, "{sets:?}: needs grid crossings");
         assert!(
             sim.max_mass_error <= 1e-13,
@@ -258,7 +200,7 @@ fn the_consistent_mass_conserves_mass_and_momentum_to_round_off() {
             "particles.per_cell=8",
         ];
         sets3.extend(consistent);
-        let sim = run_nd::<3>("axis_aligned_mms", &sets3, 2);
+        let sim = run_nd::<3>("axis_aligned_mms", &sets3, 2).1;
         assert!(
             sim.max_mass_error <= 1e-13,
             "{sets3:?}: mass {:e}",
@@ -284,7 +226,7 @@ fn every_solver_kind_gives_the_same_particles() {
             "solver.tolerance=1e-12",
             key.as_str(),
         ];
-        run_nd::<2>("axis_aligned_mms", &sets, 2)
+        run_nd::<2>("axis_aligned_mms", &sets, 2).1
     };
     let reference = run("direct");
     let scale = reference.particles.u[0]
@@ -310,8 +252,8 @@ fn consistent_mass_results_are_bitwise_identical_on_one_and_three_threads() {
         "grid.cells=40",
         "time.end=0.0003",
     ];
-    let serial = run_nd::<2>("axis_aligned_mms", &sets, 1);
-    let parallel = run_nd::<2>("axis_aligned_mms", &sets, 3);
+    let serial = run_nd::<2>("axis_aligned_mms", &sets, 1).1;
+    let parallel = run_nd::<2>("axis_aligned_mms", &sets, 3).1;
     assert_eq!(bits(&serial.particles), bits(&parallel.particles), "2D");
     let sets3 = [
         "method.reconstruction=\"tls\"",
@@ -321,8 +263,8 @@ fn consistent_mass_results_are_bitwise_identical_on_one_and_three_threads() {
         "problem.dim=3",
         "particles.per_cell=8",
     ];
-    let serial = run_nd::<3>("axis_aligned_mms", &sets3, 1);
-    let parallel = run_nd::<3>("axis_aligned_mms", &sets3, 3);
+    let serial = run_nd::<3>("axis_aligned_mms", &sets3, 1).1;
+    let parallel = run_nd::<3>("axis_aligned_mms", &sets3, 3).1;
     assert_eq!(bits(&serial.particles), bits(&parallel.particles), "3D");
 }
 

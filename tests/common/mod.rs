@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod tensor;
+
 use tlsmpm::app::{self, builtin, RunOptions, StudyRow};
 use tlsmpm::config::{self, Scenario};
 use tlsmpm::output::Summary;
