@@ -5,6 +5,7 @@
 //! cargo bench --bench mpm_step -- mpm_step/serial
 //! cargo bench --bench mpm_step -- mpm_step_2d
 //! cargo bench --bench mpm_step -- mpm_step_3d
+//! cargo bench --bench mpm_step -- mpm_step_2d_tls
 //! cargo bench --bench mpm_step -- 'mpm_step_2d/bspline2/.*/1000000|memory_bandwidth'
 //! cargo bench --bench mpm_step -- --test mpm_step_2d   # each bench once (smoke test)
 //! ```
@@ -36,6 +37,13 @@
 //!   second ("elements"); sizes from 1e6 use 10 flat samples.
 //! * `mpm_step_3d/{basis}/t{threads}/N`: the same in 3D (`problem.dim = 3`, 8 particles per
 //!   cell) on `n^3` cells, `n = 11, 23, 50`, i.e. `N = 8 n^3` ≈ 1e4, 1e5, 1e6.
+//! * `mpm_step_2d_tls/{basis}/{method}/N`: the 2D step with TLS and the consistent mass
+//!   per solver kind, next to the lumped steps it is compared with: `basis` is `bspline2` or
+//!   `bspline3`, `method` one of `bsmpm_lumped` (no reconstruction), `tls_lumped`,
+//!   `tls_{kron,pmg_cg,cg,pcg,direct}` (`method.mass = "consistent"`, `solver.kind`); the
+//!   same scenario as `mpm_step_2d` but with the shipped `dt = 1e-5`, so that the warm
+//!   starts see a real step's change; `n = 32, 158` (`N` ≈ 4e3, 1e5), the parallel pool
+//!   only. `perf/profile_step.rs --dim 2` splits such a step into its phases.
 //! * `memory_bandwidth/triad_{serial,parallel}`: `a[i] = b[i] + s c[i]` over three arrays
 //!   of 2^24 `f64` (384 MiB), counted as `3 * 8` bytes per element (STREAM convention: no
 //!   write-allocate traffic).
@@ -353,6 +361,69 @@ fn mpm_step_3d(c: &mut Criterion) {
     tensor_group::<3>(c, "mpm_step_3d", 8, [11, 23, 50]);
 }
 
+/// The methods of `mpm_step_2d_tls`: id and overrides.
+fn tls_methods() -> Vec<(String, Vec<String>)> {
+    let mut methods = vec![
+        (
+            "bsmpm_lumped".to_string(),
+            vec!["method.reconstruction=\"none\"".to_string()],
+        ),
+        (
+            "tls_lumped".to_string(),
+            vec!["method.reconstruction=\"tls\"".to_string()],
+        ),
+    ];
+    for kind in ["kron", "pmg_cg", "cg", "pcg", "direct"] {
+        methods.push((
+            format!("tls_{kind}"),
+            vec![
+                "method.reconstruction=\"tls\"".to_string(),
+                "method.mass=\"consistent\"".to_string(),
+                format!("solver.kind=\"{kind}\""),
+            ],
+        ));
+    }
+    methods
+}
+
+fn mpm_step_2d_tls(c: &mut Criterion) {
+    let mut group = c.benchmark_group("mpm_step_2d_tls");
+    let parallel = pool(parallel_threads());
+    for n in [32, 158] {
+        let particles = 4 * n * n;
+        if particles >= 100_000 {
+            group
+                .sampling_mode(SamplingMode::Flat)
+                .sample_size(10)
+                .warm_up_time(Duration::from_millis(500))
+                .measurement_time(Duration::from_secs(3));
+        } else {
+            group
+                .sampling_mode(SamplingMode::Auto)
+                .sample_size(20)
+                .warm_up_time(Duration::from_millis(300))
+                .measurement_time(Duration::from_secs(1));
+        }
+        group.throughput(Throughput::Elements(particles as u64));
+        for order in [2, 3] {
+            for (method, mut overrides) in tls_methods() {
+                overrides.push("method.basis=\"bspline\"".to_string());
+                overrides.push(format!("method.order={order}"));
+                overrides.push("time.dt=1.0e-5".to_string());
+                let id = BenchmarkId::new(format!("bspline{order}/{method}"), particles);
+                let mut slot: Option<TensorBench<2>> = None;
+                group.bench_function(id, |b| {
+                    let bench = slot.get_or_insert_with(|| {
+                        parallel.install(|| TensorBench::new(n, 4, &overrides))
+                    });
+                    parallel.install(|| b.iter(|| black_box(bench.step())));
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
 const TRIAD_LEN: usize = 1 << 24;
 const TRIAD_CHUNK: usize = 1 << 16;
 
@@ -414,6 +485,7 @@ criterion_group!(
     mms_step,
     mpm_step_2d,
     mpm_step_3d,
+    mpm_step_2d_tls,
     memory_bandwidth
 );
 criterion_main!(benches);

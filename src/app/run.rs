@@ -247,6 +247,7 @@ fn write_outputs(
                 max_iterations: totals.max_iterations,
             }
         },
+        timings: None,
         reconstruction_remedies: simulation.stepper.remedies(),
         config: scenario.clone(),
     };

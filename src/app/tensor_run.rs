@@ -507,7 +507,7 @@ fn write_outputs<const D: usize>(
         problem: problem.name().into(),
         dim: Some(D),
         basis: simulation.stepper.basis_name().into(),
-        reconstruction: "none".into(),
+        reconstruction: simulation.stepper.reconstruction_name().into(),
         n_particles: p.len(),
         n_cells: problem.cells.iter().product(),
         n_steps: simulation.steps_done,
@@ -523,13 +523,14 @@ fn write_outputs<const D: usize>(
         },
         grid_crossings: simulation.grid_crossings,
         solver: {
-            let (kind, total_iterations, max_iterations) = simulation.stepper.solver_totals();
+            let totals = simulation.stepper.solver_totals();
             SolverSummary {
-                kind: kind.into(),
-                total_iterations,
-                max_iterations,
+                kind: totals.kind.into(),
+                total_iterations: totals.total_iterations,
+                max_iterations: totals.max_iterations,
             }
         },
+        timings: Some(simulation.stepper.timings()),
         reconstruction_remedies: simulation.stepper.remedies(),
         config: scenario.clone(),
     };

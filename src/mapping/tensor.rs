@@ -61,4 +61,10 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
     fn consistent_mass(&self) -> Option<&CsrMatrix> {
         None
     }
+
+    /// Seconds spent assembling the consistent mass so far (inside
+    /// [`TensorMapping::map_mass_and_force`]).
+    fn assembly_seconds(&self) -> f64 {
+        0.0
+    }
 }

@@ -13,6 +13,10 @@
 //! reduced in task order into the values of a CSR matrix whose pattern (the in-grid slots,
 //! columns ascending) is built once. The result is bitwise identical for any thread
 //! count.
+//!
+//! A cell's block is added in one call, sum-factorised
+//! ([`super::sum_factor::CellQuadrature::add_mass`]),
+//! or point by point ([`StencilRows::add_outer`]) where the support changes inside a cell.
 
 use super::tensor_scatter::{scatter_tasks, ScatterTask};
 use crate::grid::{Basis, TensorBasis, TensorShape};
@@ -22,10 +26,10 @@ use std::ops::Range;
 
 /// The rows `[lo, lo + rows)` of a task's stencil buffer.
 pub struct StencilRows<'a, const D: usize> {
-    lo: usize,
-    width: usize,
-    reach: usize,
-    values: &'a mut [f64],
+    pub(super) lo: usize,
+    pub(super) width: usize,
+    pub(super) reach: usize,
+    pub(super) values: &'a mut [f64],
 }
 
 /// Most nodes of one evaluation's support that [`StencilRows::add_outer`] takes.

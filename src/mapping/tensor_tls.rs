@@ -42,6 +42,7 @@
 // Index loops: the indices enter the formulas (terms, axes, LDL^T rows).
 #![allow(clippy::needless_range_loop)]
 
+use super::sum_factor::CellQuadrature;
 use super::tensor::TensorMapping;
 use super::tensor_direct::{half_lengths, split_components, TensorBody, TensorGridFields};
 use super::tensor_mass::{StencilAssembly, MAX_SUPPORT_NODES};
@@ -148,11 +149,12 @@ pub struct TensorTlsMapping<const D: usize> {
     vector: Vec<[f64; MAX_TERMS]>,
     mass_force: TensorScatter<4>,
     vector_scatter: TensorScatter<D>,
-    body_force: Vec<[f64; D]>,
     remedies: RemedyCounts,
     /// The consistent mass matrix (`method.mass` or `method.acceleration_mass` =
     /// `"consistent"`).
     consistent: Option<StencilAssembly<D>>,
+    /// Seconds spent in [`Self::assemble_consistent_mass`] so far.
+    assembly_seconds: f64,
 }
 
 impl<const D: usize> TensorTlsMapping<D> {
@@ -187,9 +189,9 @@ impl<const D: usize> TensorTlsMapping<D> {
             vector: vec![[0.0; MAX_TERMS]; cells * D],
             mass_force: TensorScatter::new(basis),
             vector_scatter: TensorScatter::new(basis),
-            body_force: vec![[0.0; D]; basis.num_dofs()],
             remedies: RemedyCounts::default(),
             consistent: None,
+            assembly_seconds: 0.0,
         })
     }
 
@@ -210,24 +212,39 @@ impl<const D: usize> TensorTlsMapping<D> {
         let Some(assembly) = self.consistent.as_mut() else {
             return;
         };
+        let start = std::time::Instant::now();
         let strides = *basis.strides();
         let (lo, hi, active, density, rule) =
             (&self.lo, &self.hi, &self.active, &self.density, &self.rule);
         assembly.assemble(|cells, rows| {
             let mut shape = TensorShape::<D>::default();
+            // Per task: the sum-factorised cell block and the point weights.
+            let mut quadrature = CellQuadrature::<D>::default();
+            let mut weights = Vec::with_capacity(rule.len.pow(D as u32));
             for cell in cells {
                 if !active[cell] {
                     continue;
                 }
                 let taylor = TaylorBox::new(lo[cell], hi[cell]);
                 let index = cell_axes(&basis.grid, cell);
-                BoxRule::new(rule, lo[cell], hi[cell]).for_each(|x, w| {
-                    basis.eval_particle(index, x, [0.0; D], &mut shape);
-                    let rw = dot::<D>(&density[cell], &taylor.terms(x)) * w;
-                    rows.add_outer(&shape, &strides, rw);
-                });
+                let points = BoxRule::new(rule, lo[cell], hi[cell]);
+                let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
+                if uniform {
+                    weights.clear();
+                    points.for_each(|x, w| {
+                        weights.push(dot::<D>(&density[cell], &taylor.terms(x)) * w);
+                    });
+                    quadrature.add_mass(rows, &strides, &weights);
+                } else {
+                    points.for_each(|x, w| {
+                        basis.eval_particle(index, x, [0.0; D], &mut shape);
+                        let rw = dot::<D>(&density[cell], &taylor.terms(x)) * w;
+                        rows.add_outer(&shape, &strides, rw);
+                    });
+                }
             }
         });
+        self.assembly_seconds += start.elapsed().as_secs_f64();
     }
 
     /// The active box `[lo, hi]` of `cell` in the last mapping (`None` if inactive).
@@ -373,7 +390,15 @@ impl<const D: usize> TensorTlsMapping<D> {
     }
 
     /// Fit stress (full) and density (conservative) in every active cell; density limiter.
-    fn fit_stress_and_density(&mut self, particles: &TensorParticles<D>, cell_start: &[usize]) {
+    /// With `body` (per-particle body forces `b_p`, totals in `cell_totals[e][1..]`), also
+    /// the conservative fits of `rho_p b_p` into `self.vector`, from the same normal
+    /// matrix.
+    fn fit_stress_and_density(
+        &mut self,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+        body: Option<&[Vec<f64>; D]>,
+    ) {
         let components = stress_components::<D>();
         let ns = components.len();
         let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
@@ -382,19 +407,22 @@ impl<const D: usize> TensorTlsMapping<D> {
             .stress
             .par_chunks_mut(ns)
             .zip(self.density.par_iter_mut())
+            .zip(self.vector.par_chunks_mut(D))
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .map(|(cell, (stress, density))| {
+            .map(|(cell, ((stress, density), body_fits))| {
                 let mut counts = RemedyCounts::default();
                 if !active[cell] {
                     stress.fill([0.0; MAX_TERMS]);
                     *density = [0.0; MAX_TERMS];
+                    body_fits.fill([0.0; MAX_TERMS]);
                     return counts;
                 }
                 let taylor = TaylorBox::new(lo[cell], hi[cell]);
                 let mut normal = NormalMatrix::<D>::default();
                 let mut stress_rhs = [[0.0; MAX_TERMS]; 6];
                 let mut density_rhs = [0.0; MAX_TERMS];
+                let mut body_rhs = [[0.0; MAX_TERMS]; D];
                 for p in cell_start[cell]..cell_start[cell + 1] {
                     let t = taylor.terms(particles.position(p));
                     normal.add(&t);
@@ -402,17 +430,30 @@ impl<const D: usize> TensorTlsMapping<D> {
                         add_rhs::<D>(rhs, &t, particles.stress[stress_index(a, c)][p]);
                     }
                     add_rhs::<D>(&mut density_rhs, &t, particles.density[p]);
+                    if let Some(b) = body {
+                        for a in 0..D {
+                            add_rhs::<D>(&mut body_rhs[a], &t, particles.density[p] * b[a][p]);
+                        }
+                    }
                 }
                 let (full, q_full) = fit_degree(&normal, false, MAX_DEGREE);
                 let (conservative, q_cons) = fit_degree(&normal, true, MAX_DEGREE);
                 for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
                     *a = full.solve(&normal, rhs, 0.0);
                 }
-                let a1 = totals[cell][0] / box_volume(&lo[cell], &hi[cell]);
+                let volume = box_volume(&lo[cell], &hi[cell]);
+                let a1 = totals[cell][0] / volume;
                 *density = conservative.solve(&normal, &density_rhs, a1);
                 counts.density_limited_fits =
                     limit_density(&taylor, &BoxRule::new(rule, lo[cell], hi[cell]), density);
-                let reduced = u64::from(q_full < MAX_DEGREE) + u64::from(q_cons < MAX_DEGREE);
+                if body.is_some() {
+                    for a in 0..D {
+                        body_fits[a] =
+                            conservative.solve(&normal, &body_rhs[a], totals[cell][1 + a] / volume);
+                    }
+                }
+                let reduced = u64::from(q_full < MAX_DEGREE)
+                    + u64::from(q_cons < MAX_DEGREE) * if body.is_some() { 2 } else { 1 };
                 counts.degenerate_fits = reduced;
                 counts.order_reduced_fits = reduced;
                 counts
@@ -490,6 +531,8 @@ impl<const D: usize> TensorTlsMapping<D> {
         self.vector_scatter
             .scatter_cells(out, |cells: Range<usize>, first, local| {
                 let mut shape = TensorShape::<D>::default();
+                let mut quadrature = CellQuadrature::<D>::default();
+                let mut values = Vec::with_capacity(rule.len.pow(D as u32) * D);
                 for cell in cells {
                     if !active[cell] {
                         continue;
@@ -497,7 +540,22 @@ impl<const D: usize> TensorTlsMapping<D> {
                     let taylor = TaylorBox::new(lo[cell], hi[cell]);
                     let index = cell_axes(&basis.grid, cell);
                     let fits = &vector[cell * D..(cell + 1) * D];
-                    BoxRule::new(rule, lo[cell], hi[cell]).for_each(|x, w| {
+                    let points = BoxRule::new(rule, lo[cell], hi[cell]);
+                    if quadrature.set_cell(basis, index, &points.x, rule.len) {
+                        values.clear();
+                        points.for_each(|x, w| {
+                            let t = taylor.terms(x);
+                            values.extend((0..D).map(|a| dot::<D>(&fits[a], &t) * w));
+                        });
+                        quadrature.integrate(&values, D, None, &strides, |node, r| {
+                            let o = &mut local[node - first];
+                            for a in 0..D {
+                                o[a] += r[a];
+                            }
+                        });
+                        continue;
+                    }
+                    points.for_each(|x, w| {
                         basis.eval_particle(index, x, [0.0; D], &mut shape);
                         let t = taylor.terms(x);
                         let value: [f64; D] = std::array::from_fn(|a| dot::<D>(&fits[a], &t) * w);
@@ -512,26 +570,38 @@ impl<const D: usize> TensorTlsMapping<D> {
             });
     }
 
-    /// `m_I`, `-f_int` into the mass-force scatter output.
+    /// `m_I`, `f_I = int (rho b)_hat phi_I - sigma_hat . grad phi_I` (the body term with
+    /// `with_body`, from the fits in `self.vector`) into the mass-force scatter output.
     fn integrate_mass_and_force<B: Basis, const N: usize>(
         &mut self,
         basis: &TensorBasis<D, B>,
         out: &mut [[f64; 4]],
+        with_body: bool,
     ) {
         let strides = *basis.strides();
         let components = stress_components::<D>();
         let ns = components.len();
-        let (lo, hi, active, stress, density, rule) = (
+        let (lo, hi, active, stress, density, vector, rule) = (
             &self.lo,
             &self.hi,
             &self.active,
             &self.stress,
             &self.density,
+            &self.vector,
             &self.rule,
         );
+        let components = &components;
         self.mass_force
             .scatter_cells(out, |cells: Range<usize>, first, local| {
                 let mut shape = TensorShape::<D>::default();
+                let mut quadrature = CellQuadrature::<D>::default();
+                let count = rule.len.pow(D as u32);
+                // Per point: mass and body weights (1 + D), then per derivative axis c the
+                // stress column sigma_(a c) w (D each).
+                let mut mass_values = Vec::with_capacity(count * (1 + D));
+                let mut stress_values: [Vec<f64>; D] =
+                    std::array::from_fn(|_| Vec::with_capacity(count * D));
+                let mass_width = if with_body { 1 + D } else { 1 };
                 for cell in cells {
                     if !active[cell] {
                         continue;
@@ -539,16 +609,40 @@ impl<const D: usize> TensorTlsMapping<D> {
                     let taylor = TaylorBox::new(lo[cell], hi[cell]);
                     let index = cell_axes(&basis.grid, cell);
                     let fits = &stress[cell * ns..(cell + 1) * ns];
-                    BoxRule::new(rule, lo[cell], hi[cell]).for_each(|x, w| {
-                        basis.eval_particle(index, x, [0.0; D], &mut shape);
+                    let body = &vector[cell * D..(cell + 1) * D];
+                    let points = BoxRule::new(rule, lo[cell], hi[cell]);
+                    let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
+                    mass_values.clear();
+                    for column in stress_values.iter_mut() {
+                        column.clear();
+                    }
+                    points.for_each(|x, w| {
                         let t = taylor.terms(x);
-                        let rw = dot::<D>(&density[cell], &t) * w;
                         let mut sw = [[0.0; D]; D];
-                        for (fit, &(a, c)) in fits.iter().zip(&components) {
+                        for (fit, &(a, c)) in fits.iter().zip(components) {
                             let s = dot::<D>(fit, &t) * w;
                             sw[a][c] = s;
                             sw[c][a] = s;
                         }
+                        let rw = dot::<D>(&density[cell], &t) * w;
+                        let bw: [f64; D] = std::array::from_fn(|a| {
+                            if with_body {
+                                dot::<D>(&body[a], &t) * w
+                            } else {
+                                0.0
+                            }
+                        });
+                        if uniform {
+                            mass_values.push(rw);
+                            if with_body {
+                                mass_values.extend_from_slice(&bw);
+                            }
+                            for c in 0..D {
+                                stress_values[c].extend((0..D).map(|a| sw[a][c]));
+                            }
+                            return;
+                        }
+                        basis.eval_particle(index, x, [0.0; D], &mut shape);
                         shape.for_each_node_n::<N>(&strides, |node, phi, grad| {
                             let o = &mut local[node - first];
                             o[0] += rw * phi;
@@ -557,10 +651,30 @@ impl<const D: usize> TensorTlsMapping<D> {
                                 for c in 0..D {
                                     internal += sw[a][c] * grad[c];
                                 }
-                                o[1 + a] -= internal;
+                                o[1 + a] += bw[a] * phi - internal;
                             }
                         });
                     });
+                    if !uniform {
+                        continue;
+                    }
+                    quadrature.integrate(&mass_values, mass_width, None, &strides, |node, r| {
+                        let o = &mut local[node - first];
+                        o[0] += r[0];
+                        if with_body {
+                            for a in 0..D {
+                                o[1 + a] += r[1 + a];
+                            }
+                        }
+                    });
+                    for c in 0..D {
+                        quadrature.integrate(&stress_values[c], D, Some(c), &strides, |node, r| {
+                            let o = &mut local[node - first];
+                            for a in 0..D {
+                                o[1 + a] -= r[a];
+                            }
+                        });
+                    }
                 }
             });
     }
@@ -597,13 +711,26 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         fields: &mut TensorGridFields<D>,
     ) {
         self.update_boxes(particles, cell_start);
+        let per_particle = match body {
+            TensorBody::PerParticle(b) => Some(b),
+            TensorBody::Uniform(_) => None,
+        };
         self.update_totals(particles, cell_start, |p| {
-            [particles.mass[p], 0.0, 0.0, 0.0]
+            let mut q = [particles.mass[p], 0.0, 0.0, 0.0];
+            if let Some(b) = per_particle {
+                for a in 0..D {
+                    q[1 + a] = particles.mass[p] * b[a][p];
+                }
+            }
+            q
         });
-        self.fit_stress_and_density(particles, cell_start);
+        // The body force int (rho b)_hat phi is mapped like a momentum, with the fits of
+        // the same pass.
+        self.fit_stress_and_density(particles, cell_start, per_particle);
         let mut mass_force = std::mem::take(&mut fields.mass_force);
+        let with_body = per_particle.is_some();
         with_fixed_support!(basis, N => {
-            self.integrate_mass_and_force::<B, N>(basis, &mut mass_force)
+            self.integrate_mass_and_force::<B, N>(basis, &mut mass_force, with_body)
         });
         for ((m, f), mf) in fields
             .mass
@@ -616,26 +743,13 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         }
         fields.mass_force = mass_force;
         self.assemble_consistent_mass(basis);
-        match body {
-            TensorBody::Uniform(b) => {
-                if b.iter().any(|&b| b != 0.0) {
-                    for (f, &m) in fields.force.iter_mut().zip(&fields.mass) {
-                        for a in 0..D {
-                            f[a] += b[a] * m;
-                        }
-                    }
-                }
-            }
-            TensorBody::PerParticle(b) => {
-                // int (rho b)_hat phi, mapped like a momentum.
-                let mut external = std::mem::take(&mut self.body_force);
-                self.map_vector(basis, particles, cell_start, b, &mut external);
-                for (f, e) in fields.force.iter_mut().zip(&external) {
+        if let TensorBody::Uniform(b) = body {
+            if b.iter().any(|&b| b != 0.0) {
+                for (f, &m) in fields.force.iter_mut().zip(&fields.mass) {
                     for a in 0..D {
-                        f[a] += e[a];
+                        f[a] += b[a] * m;
                     }
                 }
-                self.body_force = external;
             }
         }
     }
@@ -681,6 +795,10 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
 
     fn consistent_mass(&self) -> Option<&CsrMatrix> {
         self.consistent.as_ref().map(|a| &a.matrix)
+    }
+
+    fn assembly_seconds(&self) -> f64 {
+        self.assembly_seconds
     }
 }
 

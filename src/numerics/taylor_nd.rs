@@ -177,8 +177,18 @@ pub fn add_rhs<const D: usize>(rhs: &mut [f64; MAX_TERMS], t: &[f64; MAX_TERMS],
 pub struct Factor {
     first: usize,
     terms: usize,
-    l: [[f64; MAX_TERMS]; MAX_TERMS],
+    /// The strictly lower triangle of `L`, row by row: `L[i][k]` at `i (i - 1) / 2 + k`.
+    l: [f64; PACKED],
     inv_d: [f64; MAX_TERMS],
+}
+
+/// Entries of the strictly lower triangle of a `MAX_TERMS` square.
+const PACKED: usize = MAX_TERMS * (MAX_TERMS - 1) / 2;
+
+/// Position of `L[i][k]`, `k < i`, in [`Factor::l`].
+#[inline(always)]
+fn packed(i: usize, k: usize) -> usize {
+    i * (i - 1) / 2 + k
 }
 
 impl Factor {
@@ -211,7 +221,7 @@ impl Factor {
             };
             let mut s = rhs[first + i] - fixed;
             for k in 0..i {
-                s -= self.l[i][k] * x[k];
+                s -= self.l[packed(i, k)] * x[k];
             }
             x[i] = s;
         }
@@ -221,7 +231,7 @@ impl Factor {
         for i in (0..n).rev() {
             let mut s = x[i];
             for k in i + 1..n {
-                s -= self.l[k][i] * x[k];
+                s -= self.l[packed(k, i)] * x[k];
             }
             x[i] = s;
         }
@@ -237,12 +247,29 @@ pub fn factor<const D: usize>(
     first: usize,
     terms: usize,
 ) -> Option<Factor> {
+    let (f, passed) = factor_prefix(normal, first, terms);
+    (passed == terms.saturating_sub(first)).then_some(f)
+}
+
+/// Factor the block `first..terms` of `normal` row by row up to the first pivot that
+/// fails the test; returns the factor and the number of rows that passed. The factor of a
+/// leading block is the leading block of the factor, so the rows that passed are the
+/// factor of every smaller degree (bitwise: row `i` uses only rows `< i`).
+fn factor_prefix<const D: usize>(
+    normal: &NormalMatrix<D>,
+    first: usize,
+    terms: usize,
+) -> (Factor, usize) {
     let moments = even_moments::<D>();
     let count = normal.count.max(1) as f64;
     let n = terms.saturating_sub(first);
-    let mut l = [[0.0; MAX_TERMS]; MAX_TERMS];
+    let mut f = Factor {
+        first,
+        terms,
+        l: [0.0; PACKED],
+        inv_d: [0.0; MAX_TERMS],
+    };
     let mut d = [0.0; MAX_TERMS];
-    let mut inv_d = [0.0; MAX_TERMS];
     let entry = |i: usize, j: usize| {
         let (r, c) = (first + i.min(j), first + i.max(j));
         normal.d[r][c]
@@ -251,52 +278,42 @@ pub fn factor<const D: usize>(
         for j in 0..i {
             let mut s = entry(i, j);
             for k in 0..j {
-                s -= l[i][k] * l[j][k] * d[k];
+                s -= f.l[packed(i, k)] * f.l[packed(j, k)] * d[k];
             }
-            l[i][j] = s * inv_d[j];
+            f.l[packed(i, j)] = s * f.inv_d[j];
         }
         let mut pivot = entry(i, i);
         for k in 0..i {
-            pivot -= l[i][k] * l[i][k] * d[k];
+            pivot -= f.l[packed(i, k)] * f.l[packed(i, k)] * d[k];
         }
         if pivot.is_nan() || pivot < MIN_SPREAD * count * moments[first + i] {
-            return None;
+            return (f, i);
         }
         d[i] = pivot;
-        inv_d[i] = 1.0 / pivot;
+        f.inv_d[i] = 1.0 / pivot;
     }
-    Some(Factor {
-        first,
-        terms,
-        l,
-        inv_d,
-    })
+    (f, n)
 }
 
 /// The factor of the highest degree `q <= max_degree` whose block passes the test, for a
-/// full (`conservative = false`) or conservative fit. A conservative fit of degree 0 has
-/// nothing to fit and always succeeds; a full fit without points falls back to an empty
-/// factor (all coefficients 0).
+/// full (`conservative = false`) or conservative fit, from one factorisation of the
+/// largest block. A conservative fit of degree 0 has nothing to fit and always succeeds; a
+/// full fit without points falls back to an empty factor (all coefficients 0).
 pub fn fit_degree<const D: usize>(
     normal: &NormalMatrix<D>,
     conservative: bool,
     max_degree: usize,
 ) -> (Factor, usize) {
     let first = usize::from(conservative);
+    let (mut f, passed) = factor_prefix(normal, first, terms(D, max_degree));
     for q in (0..=max_degree).rev() {
-        if let Some(f) = factor(normal, first, terms(D, q)) {
+        if terms(D, q) - first <= passed {
+            f.terms = terms(D, q);
             return (f, q);
         }
     }
-    (
-        Factor {
-            first,
-            terms: first,
-            l: [[0.0; MAX_TERMS]; MAX_TERMS],
-            inv_d: [0.0; MAX_TERMS],
-        },
-        0,
-    )
+    f.terms = first;
+    (f, 0)
 }
 
 #[cfg(test)]

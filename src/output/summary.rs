@@ -68,6 +68,11 @@ pub struct Summary {
     pub conservation: Conservation,
     pub grid_crossings: usize,
     pub solver: SolverSummary,
+    /// 2D / 3D runs: wall-clock seconds per phase of the step, summed over the run
+    /// (`mass_solve_seconds / (sum of the phases)` is the share of the step in the mass
+    /// solve). Timings vary from run to run; nothing else in the outputs does.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timings: Option<crate::physics::tensor::StepTimings>,
     /// Cell fits of the reconstruction that needed a remedy (SPEC §4.1), summed over the
     /// run; all zero for the direct mapping.
     pub reconstruction_remedies: crate::mapping::RemedyCounts,

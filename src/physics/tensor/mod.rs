@@ -13,9 +13,11 @@ pub mod material;
 pub mod simulation;
 pub mod stability;
 pub mod step;
+pub mod timings;
 
 pub use boundary::{FaceConditions, NodeConstraints};
 pub use mass::TensorMassSolve;
 pub use material::{lame, LinearElasticTensor, NeoHookeanTensor, TensorLaw, TensorMaterial};
 pub use simulation::{TensorBodySource, TensorSimulation, TensorTimeStepper, TimeStepping};
 pub use step::{TensorStepReport, TensorStepper};
+pub use timings::StepTimings;

@@ -9,13 +9,14 @@
 //! mu`). The last step is shortened to end exactly at `time.end`.
 
 use super::step::{TensorStepReport, TensorStepper};
+use super::timings::StepTimings;
 use crate::error::Result;
 use crate::grid::Basis;
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorBody;
 use crate::mapping::RemedyCounts;
 use crate::particles::TensorParticles;
-use crate::physics::HistoryRow;
+use crate::physics::{HistoryRow, SolverTotals};
 use rayon::prelude::*;
 
 /// Steps between recomputations of an automatic time step.
@@ -42,13 +43,17 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
     fn energies(&self, particles: &TensorParticles<D>) -> (f64, f64);
     /// `method.basis`.
     fn basis_name(&self) -> &'static str;
+    /// `method.reconstruction` (`"none"` for the direct mapping).
+    fn reconstruction_name(&self) -> &'static str;
     /// P-wave modulus of the law.
     fn wave_modulus(&self) -> f64;
     /// Remedies of degenerate reconstruction fits so far.
     fn remedies(&self) -> RemedyCounts;
-    /// The mass solves so far: `solver.kind` (or `"lumped"`), total and largest
+    /// The mass solves so far: `solver.kind` (or `"lumped"`), solves, total and largest
     /// iteration count per solve.
-    fn solver_totals(&self) -> (&'static str, usize, usize);
+    fn solver_totals(&self) -> SolverTotals;
+    /// Seconds per phase of the steps so far.
+    fn timings(&self) -> StepTimings;
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
@@ -70,17 +75,31 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
     fn basis_name(&self) -> &'static str {
         self.basis.name()
     }
+    fn reconstruction_name(&self) -> &'static str {
+        self.mapping.name()
+    }
     fn wave_modulus(&self) -> f64 {
         self.material.wave_modulus()
     }
     fn remedies(&self) -> RemedyCounts {
         self.mapping.remedies()
     }
-    fn solver_totals(&self) -> (&'static str, usize, usize) {
+    fn solver_totals(&self) -> SolverTotals {
         match &self.mass_solve {
-            Some(s) => (s.name(), s.total_iterations, s.max_iterations),
-            None => ("lumped", 0, 0),
+            Some(s) => SolverTotals {
+                kind: s.name(),
+                solves: s.solves,
+                total_iterations: s.total_iterations,
+                max_iterations: s.max_iterations,
+            },
+            None => SolverTotals {
+                kind: "lumped",
+                ..SolverTotals::default()
+            },
         }
+    }
+    fn timings(&self) -> StepTimings {
+        TensorStepper::timings(self)
     }
 }
 

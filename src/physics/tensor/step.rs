@@ -18,6 +18,7 @@
 use super::boundary::NodeConstraints;
 use super::mass::TensorMassSolve;
 use super::material::{LinearElasticTensor, NeoHookeanTensor, TensorLaw, TensorMaterial};
+use super::timings::{PhaseClock, StepTimings};
 use crate::config::MassKind;
 use crate::config::Scheme;
 use crate::error::{Error, Result};
@@ -55,6 +56,8 @@ pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorD
     pub cell_start: Vec<usize>,
     /// Consistent-mass solves (`None`: lumped).
     pub mass_solve: Option<TensorMassSolve<D>>,
+    /// Seconds per phase so far (`assembly_seconds` is read from the mapping).
+    timings: StepTimings,
     order: Vec<usize>,
     total_mass: f64,
 }
@@ -78,6 +81,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             constraints,
             cell_start: Vec::new(),
             mass_solve: None,
+            timings: StepTimings::default(),
             order: Vec::new(),
             total_mass: deterministic_sum(particles.len(), |p| particles.mass[p]),
         };
@@ -103,6 +107,8 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         time: f64,
     ) -> Result<TensorStepReport> {
         let fields = &mut self.fields;
+        let mut clock = PhaseClock::start();
+        let mut solve_seconds = 0.0;
         // 1. Mass and force.
         self.mapping
             .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields);
@@ -121,6 +127,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 .map_momentum(&self.basis, particles, &self.cell_start, fields);
             momentum_error = particle_momentum_error(particles, &fields.momentum);
         }
+        self.timings.mass_and_force_seconds += clock.lap();
         if let (Some(solve), Some(matrix)) = (&mut self.mass_solve, self.mapping.consistent_mass())
         {
             solve.prepare(&fields.mass, matrix);
@@ -138,6 +145,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             _ => divide_by_mass(&fields.mass, &fields.force, &mut fields.acceleration),
         }
         self.constraints.apply(&mut fields.acceleration);
+        solve_seconds += clock.lap();
         // 3. Grid velocities.
         let mut musl_momentum = None;
         match self.scheme {
@@ -149,6 +157,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                     dt,
                     fields,
                 ));
+                self.timings.velocity_and_momentum_seconds += clock.lap();
                 match &mut self.mass_solve {
                     Some(solve) if consistent_velocity => solve.velocities(fields)?,
                     _ => divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity),
@@ -167,6 +176,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             }
         }
         self.constraints.apply(&mut fields.velocity);
+        solve_seconds += clock.lap();
         if let Some([mx, my, mz, scale]) = musl_momentum {
             momentum_error = momentum_error_of(&fields.momentum, [mx, my, mz], scale);
         }
@@ -217,12 +227,25 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             let cells = self.basis.grid.num_cells();
             particles.sort_by_cell(cells, &mut self.cell_start, &mut self.order);
         }
+        self.timings.particle_update_seconds += clock.lap();
+        self.timings.mass_solve_seconds += solve_seconds;
+        self.timings.steps += 1;
         Ok(TensorStepReport {
             mass_error,
             momentum_error,
             crossings: outcome.crossings,
             energies: outcome.energies,
         })
+    }
+
+    /// Seconds per phase of the steps so far.
+    pub fn timings(&self) -> StepTimings {
+        let assembly = self.mapping.assembly_seconds();
+        StepTimings {
+            mass_and_force_seconds: (self.timings.mass_and_force_seconds - assembly).max(0.0),
+            assembly_seconds: assembly,
+            ..self.timings
+        }
     }
 
     /// Kinetic energy `sum_p m_p |v_p|^2 / 2` and stored energy of the particles.
