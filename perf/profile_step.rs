@@ -63,7 +63,9 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
   --reconstruction tls (default) or none
   --mass           consistent (default; method.mass) or lumped
   --solver K       solver.kind of the consistent mass (default: the 2D/3D default)
-  -h, --help       this message";
+  -h, --help       this message
+
+2D/3D steps use dt = min(1e-5, h / (4 c)) with c = 100, below the stability limit.";
 
     pub struct Options {
         pub dim: usize,
@@ -212,7 +214,9 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
         let cells = options.cells.unwrap_or(if D == 2 { 500 } else { 50 });
         let per_cell = options.per_cell.unwrap_or(1 << D);
         let steps = options.steps.unwrap_or(20);
-        let dt = 1.0e-5;
+        // The scenario's 1e-5, or a quarter of h / c (c = 100) on fine grids, below the
+        // stability limit of B-splines up to order 3.
+        let dt = f64::min(1.0e-5, 0.25 / (100.0 * cells as f64));
         let mut overrides = vec![
             format!("problem.dim={D}"),
             format!("grid.cells={cells}"),

@@ -222,7 +222,8 @@ impl<const D: usize> CellQuadrature<D> {
 }
 
 /// `next[o][k][r] = sum_g factors[g * count + k] current[o][g][r]` for `o < outer`,
-/// `k < count`, `r < inner` (`g` summed in increasing order).
+/// `k < count`, `r < inner` (`g` summed in increasing order from 0, in a register: one
+/// store per output).
 fn contract(
     current: &[f64],
     next: &mut Vec<f64>,
@@ -233,16 +234,16 @@ fn contract(
     count: usize,
 ) {
     next.clear();
-    next.resize(outer * count * inner, 0.0);
-    for o in 0..outer {
-        for g in 0..g_count {
-            let source = &current[(o * g_count + g) * inner..][..inner];
-            let row = &factors[g * count..][..count];
-            for (k, &f) in row.iter().enumerate() {
-                let target = &mut next[(o * count + k) * inner..][..inner];
-                for (t, &c) in target.iter_mut().zip(source) {
-                    *t += f * c;
+    next.reserve(outer * count * inner);
+    let factors = &factors[..g_count * count];
+    for block in current[..outer * g_count * inner].chunks_exact(g_count * inner) {
+        for k in 0..count {
+            for r in 0..inner {
+                let mut t = 0.0;
+                for g in 0..g_count {
+                    t += factors[g * count + k] * block[g * inner + r];
                 }
+                next.push(t);
             }
         }
     }
