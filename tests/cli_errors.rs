@@ -281,6 +281,40 @@ fn forced_unstable_run_fails_with_partial_output() {
 }
 
 #[test]
+fn study_keeps_the_completed_rows_when_a_finer_run_fails() {
+    // dt = h / (2 c) on 5 cells, 5 h / c on 50: the second run collapses a particle.
+    let dir = tempdir();
+    let out = dir.path().join("study");
+    let out_arg = out.display().to_string();
+    let o = tlsmpm(&[
+        "study",
+        COLUMN,
+        "--cells",
+        "5,50",
+        "--quiet",
+        "--force",
+        "--set",
+        "particles.per_cell=2",
+        "--set",
+        "time.dt=0.005",
+        "--out",
+        &out_arg,
+    ]);
+    assert_eq!(o.code, 1, "stderr: {}", o.stderr);
+    assert!(failed_step(error_line(&o)) >= 1);
+    let table = std::fs::read_to_string(out.join("study.csv")).expect("study.csv kept");
+    let rows: Vec<&str> = table.lines().collect();
+    assert_eq!(rows.len(), 2, "header and the 5-cell row: {table}");
+    assert!(rows[0].starts_with("cells,h,n_particles,"), "{table}");
+    assert!(rows[1].starts_with("5,"), "{table}");
+    let failed: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("cells_50/summary.json")).expect("failed summary"),
+    )
+    .expect("summary.json is JSON");
+    assert_eq!(failed["status"], "failed");
+}
+
+#[test]
 fn non_finite_stress_fails_with_partial_output() {
     // A finite but absurd initial velocity overflows the stress in the first step.
     expect_numerical_failure(BAR, &[TINY, "problem.v0=1e308"], &[]);

@@ -22,7 +22,9 @@ pub struct StudyRow {
     pub fields: Vec<(Field, f64, f64, f64)>,
 }
 
-/// Run the study; returns one row per cell count (in the given order).
+/// Run the study; returns one row per cell count (in the given order). If a run fails,
+/// `study.csv` holds the rows of the runs before it (the failed run's own directory has its
+/// partial output) and its error is returned.
 pub fn study(
     scenario: &Scenario,
     name: &str,
@@ -45,9 +47,18 @@ pub fn study(
             out_dir: options.out_dir.join(format!("cells_{n}")),
             ..options.clone()
         };
-        let summary = run(&resolved, name, &run_options, &mut |step, total| {
+        let summary = match run(&resolved, name, &run_options, &mut |step, total| {
             progress(n, step, total)
-        })?;
+        }) {
+            Ok(summary) => summary,
+            Err(failure) => {
+                // Keep the table of the runs that completed (partial output), then fail.
+                if !rows.is_empty() {
+                    write_study_csv(&options.out_dir.join("study.csv"), &rows)?;
+                }
+                return Err(failure);
+            }
+        };
         let errors = summary.errors.unwrap_or_default();
         let h = if resolved.problem.dim > 1 {
             crate::problems::tensor::cell_size_x(&resolved)?
