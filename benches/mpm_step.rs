@@ -305,6 +305,29 @@ fn tensor_bases() -> [(&'static str, Vec<String>); 4] {
     ]
 }
 
+/// Sampling of a 2D / 3D group at `particles`: 10 flat samples over `large_seconds`
+/// from 1e5 particles, else 20 automatic samples over 1 s; throughput in particle-steps.
+fn sample_by_size(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    particles: usize,
+    large_seconds: u64,
+) {
+    if particles >= 100_000 {
+        group
+            .sampling_mode(SamplingMode::Flat)
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(large_seconds));
+    } else {
+        group
+            .sampling_mode(SamplingMode::Auto)
+            .sample_size(20)
+            .warm_up_time(Duration::from_millis(300))
+            .measurement_time(Duration::from_secs(1));
+    }
+    group.throughput(Throughput::Elements(particles as u64));
+}
+
 /// `{name}/{basis}/t{threads}/N` for `N = per_cell * n^D`, `n` in `cells`.
 fn tensor_group<const D: usize>(c: &mut Criterion, name: &str, per_cell: usize, cells: [usize; 3]) {
     let mut group = c.benchmark_group(name);
@@ -315,26 +338,8 @@ fn tensor_group<const D: usize>(c: &mut Criterion, name: &str, per_cell: usize, 
     let (_, widest) = pools.last().expect("at least one pool");
     for n in cells {
         let particles = per_cell * n.pow(D as u32);
-        if particles >= 1_000_000 {
-            group
-                .sampling_mode(SamplingMode::Flat)
-                .sample_size(10)
-                .warm_up_time(Duration::from_millis(500))
-                .measurement_time(Duration::from_secs(4));
-        } else if particles >= 100_000 {
-            group
-                .sampling_mode(SamplingMode::Flat)
-                .sample_size(10)
-                .warm_up_time(Duration::from_millis(500))
-                .measurement_time(Duration::from_secs(2));
-        } else {
-            group
-                .sampling_mode(SamplingMode::Auto)
-                .sample_size(20)
-                .warm_up_time(Duration::from_millis(300))
-                .measurement_time(Duration::from_secs(1));
-        }
-        group.throughput(Throughput::Elements(particles as u64));
+        let seconds = if particles >= 1_000_000 { 4 } else { 2 };
+        sample_by_size(&mut group, particles, seconds);
         for (basis, overrides) in tensor_bases() {
             // Built on first use (so a filter that skips it costs nothing), first-touched
             // in the widest pool, then stepped on every thread count.
@@ -391,20 +396,7 @@ fn mpm_step_2d_tls(c: &mut Criterion) {
     let parallel = pool(parallel_threads());
     for n in [32, 158] {
         let particles = 4 * n * n;
-        if particles >= 100_000 {
-            group
-                .sampling_mode(SamplingMode::Flat)
-                .sample_size(10)
-                .warm_up_time(Duration::from_millis(500))
-                .measurement_time(Duration::from_secs(3));
-        } else {
-            group
-                .sampling_mode(SamplingMode::Auto)
-                .sample_size(20)
-                .warm_up_time(Duration::from_millis(300))
-                .measurement_time(Duration::from_secs(1));
-        }
-        group.throughput(Throughput::Elements(particles as u64));
+        sample_by_size(&mut group, particles, 3);
         for order in [2, 3] {
             for (method, mut overrides) in tls_methods() {
                 overrides.push("method.basis=\"bspline\"".to_string());

@@ -93,6 +93,39 @@ impl<const D: usize> CellQuadrature<D> {
         true
     }
 
+    /// Contract `values` (`width` fields per point, points x fastest) over every axis in
+    /// turn into `self.current`: `factors(a, axis, buffer)` fills `buffer[g * count + k]`
+    /// with axis `a`'s factor of output `k` at coordinate `g` and returns `count`. The
+    /// result is laid out `[k_{D-1}] ... [k_0][field]`.
+    fn contract_axes(
+        &mut self,
+        values: &[f64],
+        width: usize,
+        mut factors: impl FnMut(usize, &AxisPoints, &mut Vec<f64>) -> usize,
+    ) {
+        let g_count = self.points;
+        self.current.clear();
+        self.current.extend_from_slice(values);
+        // current: [outer = G^(D-1-a)][g_a][inner]
+        let mut inner = width;
+        let mut outer = values.len() / width;
+        for a in 0..D {
+            outer /= g_count;
+            let count = factors(a, &self.axes[a], &mut self.products);
+            contract(
+                &self.current,
+                &mut self.next,
+                outer,
+                g_count,
+                inner,
+                &self.products,
+                count,
+            );
+            std::mem::swap(&mut self.current, &mut self.next);
+            inner *= count;
+        }
+    }
+
     /// `visit(node, r_node)` with `r_node[k] = sum_g values[g * width + k] prod_a F_a`, for
     /// every node of the cell's support in lexicographic order; `F_a` is `dphi` on the
     /// axis `derivative` and `phi` on the others. `values` holds `width` fields per point,
@@ -105,33 +138,16 @@ impl<const D: usize> CellQuadrature<D> {
         strides: &[usize; D],
         mut visit: impl FnMut(usize, &[f64]),
     ) {
-        let g_count = self.points;
-        self.current.clear();
-        self.current.extend_from_slice(values);
-        // current: [outer = G^(D-1-a)][g_a][inner]
-        let mut inner = width;
-        let mut outer = values.len() / width;
-        for a in 0..D {
-            outer /= g_count;
-            let axis = &self.axes[a];
-            let l = axis.len;
-            let factors = if derivative == Some(a) {
+        self.contract_axes(values, width, |a, axis, factors| {
+            let source = if derivative == Some(a) {
                 &axis.dphi
             } else {
                 &axis.phi
             };
-            contract(
-                &self.current,
-                &mut self.next,
-                outer,
-                g_count,
-                inner,
-                &factors[..g_count * l],
-                l,
-            );
-            std::mem::swap(&mut self.current, &mut self.next);
-            inner *= l;
-        }
+            factors.clear();
+            factors.extend_from_slice(&source[..axis.phi.len()]);
+            axis.len
+        });
         // current: [i_{D-1}] ... [i_0][field]
         let mut index = [0usize; D];
         for block in self.current.chunks_exact(width) {
@@ -158,37 +174,19 @@ impl<const D: usize> CellQuadrature<D> {
         strides: &[usize; D],
         weights: &[f64],
     ) {
-        let g_count = self.points;
-        self.current.clear();
-        self.current.extend_from_slice(weights);
-        let mut inner = 1;
-        let mut outer = weights.len();
-        for a in 0..D {
-            outer /= g_count;
-            let axis = &self.axes[a];
-            let l = axis.len;
+        self.contract_axes(weights, 1, |_, axis, products| {
             // products[g * l^2 + i l + j] = phi_i(x_g) phi_j(x_g)
-            self.products.clear();
-            for g in 0..g_count {
-                let phi = &axis.phi[g * l..(g + 1) * l];
+            let l = axis.len;
+            products.clear();
+            for phi in axis.phi.chunks_exact(l) {
                 for &phi_i in phi {
                     for &phi_j in phi {
-                        self.products.push(phi_i * phi_j);
+                        products.push(phi_i * phi_j);
                     }
                 }
             }
-            contract(
-                &self.current,
-                &mut self.next,
-                outer,
-                g_count,
-                inner,
-                &self.products,
-                l * l,
-            );
-            std::mem::swap(&mut self.current, &mut self.next);
-            inner *= l * l;
-        }
+            l * l
+        });
         // current: [pair_{D-1}] ... [pair_0], pair_a = i_a L_a + j_a: an odometer over
         // (j_0, i_0, j_1, i_1, ...), j fastest.
         let side = 2 * rows.reach + 1;
