@@ -7,6 +7,7 @@ mod common;
 
 use common::scenario;
 use common::tensor::{bits, cross_dimension_difference, run_1d, run_nd};
+use tlsmpm::particles::TensorParticles;
 
 #[test]
 fn extruded_column_and_bar_equal_the_1d_runs_to_round_off() {
@@ -275,4 +276,113 @@ fn automatic_time_steps_follow_the_cfl_number_and_agree_with_fixed_steps() {
         })
         .fold(0.0f64, f64::max);
     assert!(diff < 2e-3, "largest u_x difference {diff:e}");
+}
+
+/// A block of particles translating and shearing across a 2D grid with free faces, stepped
+/// `steps` times with the direct mapping of bin slack `slack`: the particles, and per step
+/// whether it had a grid crossing and whether it sorted.
+fn translating_block(slack: usize, steps: usize) -> (TensorParticles<2>, Vec<(bool, bool)>) {
+    use tlsmpm::config::{FaceCondition, Scheme};
+    use tlsmpm::grid::{BSplineBasis, TensorBasis, TensorGrid};
+    use tlsmpm::mapping::tensor_direct::{TensorBody, TensorDirectMapping};
+    use tlsmpm::physics::tensor::TensorStepper;
+    use tlsmpm::physics::tensor::{NeoHookeanTensor, NodeConstraints, TensorMaterial};
+    let cells = 20;
+    let h = 1.0 / cells as f64;
+    let grid = TensorGrid::new([1.0, 1.0], [cells, cells]);
+    let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, 2).expect("order 2"));
+    // 2 x 2 particles per cell in the cells [4, 10) x [4, 10).
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for j in 0..12 {
+        for i in 0..12 {
+            x.push((4.0 + 0.25 + 0.5 * i as f64) * h);
+            y.push((4.0 + 0.25 + 0.5 * j as f64) * h);
+        }
+    }
+    let volume = vec![0.25 * h * h; x.len()];
+    let mut particles =
+        TensorParticles::at_rest([x, y], volume, 1.0, |p| grid.cell_of(p).expect("inside"));
+    for k in 0..particles.len() {
+        let y = particles.x0[1][k];
+        particles.v[0][k] = 15.0 + 2.0 * (std::f64::consts::PI * y).sin();
+        particles.v[1][k] = 10.0;
+    }
+    let mapping = TensorDirectMapping::with_bin_slack(&basis, None, slack);
+    let constraints = NodeConstraints::new(&basis, &[[FaceCondition::Free; 2]; 2]);
+    let material = TensorMaterial::NeoHookean(NeoHookeanTensor {
+        lambda: 5769.23,
+        mu: 3846.15,
+    });
+    let mut stepper = TensorStepper::new(
+        basis,
+        mapping,
+        material,
+        Scheme::Musl,
+        constraints,
+        &mut particles,
+    );
+    let dt = 1.0e-4;
+    let mut log = Vec::new();
+    for step in 1..=steps {
+        let report = stepper
+            .step(
+                &mut particles,
+                TensorBody::Uniform([0.0; 2]),
+                dt,
+                step,
+                step as f64 * dt,
+            )
+            .expect("step");
+        assert!(
+            report.mass_error <= 1e-13,
+            "mass error {}",
+            report.mass_error
+        );
+        assert!(report.momentum_error.unwrap_or(0.0) <= 1e-13);
+        log.push((report.crossings > 0, report.sorted));
+    }
+    (particles, log)
+}
+
+#[test]
+fn the_direct_mapping_sorts_only_when_a_particle_strays_a_layer_and_agrees_with_exact_bins() {
+    // 200 steps move the block about 6 cells in x and 4 in y.
+    let steps = 200;
+    let (exact, exact_log) = translating_block(0, steps);
+    let (lazy, lazy_log) = translating_block(1, steps);
+    let crossing_steps = exact_log.iter().filter(|(c, _)| *c).count();
+    let exact_sorts = exact_log.iter().filter(|(_, s)| *s).count();
+    let lazy_sorts = lazy_log.iter().filter(|(_, s)| *s).count();
+    assert_eq!(
+        exact_sorts, crossing_steps,
+        "exact bins sort on every crossing"
+    );
+    assert!(
+        crossing_steps > steps / 5,
+        "{crossing_steps} steps with crossings"
+    );
+    assert!(
+        lazy_sorts > 0,
+        "the block travels several cells: some sorts are needed"
+    );
+    assert!(
+        4 * lazy_sorts < crossing_steps,
+        "{lazy_sorts} sorts for {crossing_steps} steps with crossings"
+    );
+    // The same particles to round-off (only the order of the sums differs).
+    let index: std::collections::HashMap<usize, usize> =
+        lazy.id.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+    let scale_s = exact.stress[0].iter().fold(0.0f64, |m, s| m.max(s.abs()));
+    let (mut dx, mut ds) = (0.0f64, 0.0f64);
+    for k in 0..exact.len() {
+        let j = index[&exact.id[k]];
+        for a in 0..2 {
+            dx = dx.max((exact.x[a][k] - lazy.x[a][j]).abs());
+        }
+        for c in 0..4 {
+            ds = ds.max((exact.stress[c][k] - lazy.stress[c][j]).abs() / scale_s);
+        }
+    }
+    assert!(dx < 1e-12 && ds < 1e-10, "position {dx}, stress {ds}");
+    assert!(scale_s > 1.0, "the shear loads the block: {scale_s}");
 }

@@ -78,6 +78,21 @@ pub trait Basis: Sync + Send {
         self.eval(cell, x, shape);
     }
 
+    /// [`Basis::eval_particle`] in a loop compiled for the fixed support `N`
+    /// ([`Basis::fixed_support`]; `N = 0`: run-time support). Bases with a fixed support
+    /// may override it with an evaluation specialised for `N` (the same values, bit for
+    /// bit); the default is [`Basis::eval_particle`].
+    #[inline(always)]
+    fn eval_particle_n<const N: usize>(
+        &self,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    ) {
+        self.eval_particle(cell, x, half_length, shape);
+    }
+
     /// Whether [`Basis::update`] must run before every step (bases that depend on the
     /// particle configuration, like the DDMPM gradient).
     fn depends_on_particles(&self) -> bool {

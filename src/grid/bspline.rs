@@ -80,6 +80,34 @@ impl Basis for BSplineBasis {
         self.eval(cell, x, shape);
     }
 
+    /// [`Basis::eval`] with the order fixed at compile time (`N = p + 1` functions): no
+    /// run-time dispatch on the order, derivative scaling over exactly `N` entries.
+    #[inline(always)]
+    fn eval_particle_n<const N: usize>(
+        &self,
+        cell: usize,
+        x: f64,
+        _half_length: f64,
+        shape: &mut Shape,
+    ) {
+        if N == 0 || N != self.order + 1 {
+            return self.eval(cell, x, shape);
+        }
+        let u = (x - self.grid.origin) * self.grid.inv_h;
+        let (spans, phi, dphi) = (self.grid.cells, &mut shape.phi, &mut shape.dphi);
+        match N {
+            2 => open_uniform_fixed::<1>(spans, cell, u, phi, dphi),
+            3 => open_uniform_fixed::<2>(spans, cell, u, phi, dphi),
+            4 => open_uniform_fixed::<3>(spans, cell, u, phi, dphi),
+            _ => open_uniform(N - 1, spans, cell, u, phi, dphi),
+        }
+        for d in &mut shape.dphi[..N] {
+            *d *= self.grid.inv_h;
+        }
+        shape.first = cell;
+        shape.len = N;
+    }
+
     fn fixed_support(&self) -> Option<usize> {
         Some(self.order + 1)
     }

@@ -105,6 +105,17 @@ impl<const D: usize> TensorGrid<D> {
         Some(cell)
     }
 
+    /// The axis indices of the cell containing `x` (each axis as [`Grid::cell_of`]),
+    /// `None` outside the grid; [`Self::cell_index`] of them is [`Self::cell_of`].
+    #[inline]
+    pub fn axis_cells_of(&self, x: [f64; D]) -> Option<[usize; D]> {
+        let mut index = [0; D];
+        for a in 0..D {
+            index[a] = self.axes[a].cell_of(x[a])?;
+        }
+        Some(index)
+    }
+
     /// The axis indices of the cell containing `x`, clamped into the grid (for points known
     /// to be inside, e.g. binned particles).
     #[inline]
@@ -112,8 +123,9 @@ impl<const D: usize> TensorGrid<D> {
         std::array::from_fn(|a| {
             let g = &self.axes[a];
             let xi = (x[a] - g.origin) * g.inv_h;
-            // `as usize` saturates: negative and NaN go to 0.
-            (xi as usize).min(g.cells - 1)
+            // `as i64` saturates (NaN goes to 0) in fewer instructions than `as usize`;
+            // the clamp sends negative indices to 0 and large ones to the last cell.
+            (xi as i64).clamp(0, g.cells as i64 - 1) as usize
         })
     }
 
@@ -198,6 +210,58 @@ impl<const D: usize> TensorShape<D> {
         }
     }
 
+    /// The x-axis functions `(phi^0_i, dphi^0_i)` of every row of the support (see
+    /// [`Self::for_each_row_n`]), `N` of each (`N = 0`: the run-time support).
+    #[inline(always)]
+    pub fn x_functions_n<const N: usize>(&self) -> (&[f64], &[f64]) {
+        let x = &self.axes[0];
+        let n = support::<N>(x);
+        (&x.phi[..n], &x.dphi[..n])
+    }
+
+    /// Call `row(first, w, dw)` for every row of the support along x, in lexicographic
+    /// order: the row's nodes are `first + i` for the x-functions `i` of
+    /// [`Self::x_functions_n`], `w = prod_{a >= 1} phi^a` is the product of the other
+    /// axes' functions and `dw[b] = d w / d x_b` for `b >= 1` (`dw[0] = 0`), so that
+    ///
+    /// ```text
+    /// phi_I = phi^0_i w,   d phi_I / d x_0 = dphi^0_i w,   d phi_I / d x_b = phi^0_i dw[b]
+    /// ```
+    /// Kernels that form their per-node coefficients once per row (sum factorisation)
+    /// spend `O(N)` products per row instead of `O(N D)` per node. In 1D there is one row
+    /// with `w = 1`.
+    #[inline(always)]
+    pub fn for_each_row_n<const N: usize>(
+        &self,
+        stride: &[usize; D],
+        mut row: impl FnMut(usize, f64, [f64; D]),
+    ) {
+        let s = &self.axes;
+        match D {
+            1 => row(s[0].first, 1.0, [0.0; D]),
+            2 => {
+                for j in 0..support::<N>(&s[1]) {
+                    let mut dw = [0.0; D];
+                    dw[1] = s[1].dphi[j];
+                    row((s[1].first + j) * stride[1] + s[0].first, s[1].phi[j], dw);
+                }
+            }
+            _ => {
+                for k in 0..support::<N>(&s[2]) {
+                    let (pz, dz) = (s[2].phi[k], s[2].dphi[k]);
+                    let plane = (s[2].first + k) * stride[2] + s[0].first;
+                    for j in 0..support::<N>(&s[1]) {
+                        let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
+                        let mut dw = [0.0; D];
+                        dw[1] = dy * pz;
+                        dw[2] = py * dz;
+                        row(plane + (s[1].first + j) * stride[1], py * pz, dw);
+                    }
+                }
+            }
+        }
+    }
+
     /// `sum_I phi_I g_I` of a grid vector field (one `[f64; D]` per node).
     #[inline]
     pub fn interpolate(&self, stride: &[usize; D], field: &[[f64; D]]) -> [f64; D] {
@@ -205,17 +269,25 @@ impl<const D: usize> TensorShape<D> {
     }
 
     /// [`Self::interpolate`] for a support size `N` known at compile time (see
-    /// [`Self::for_each_node_n`]).
+    /// [`Self::for_each_node_n`]), sum-factorised: `sum_rows w sum_i phi^0_i g_I` (row
+    /// sums along x first, see [`Self::for_each_row_n`]).
     #[inline(always)]
     pub fn interpolate_n<const N: usize>(
         &self,
         stride: &[usize; D],
         field: &[[f64; D]],
     ) -> [f64; D] {
+        let (phi_x, _) = self.x_functions_n::<N>();
         let mut out = [0.0; D];
-        self.for_each_node_n::<N>(stride, |node, phi, _| {
-            for (o, g) in out.iter_mut().zip(&field[node]) {
-                *o += phi * g;
+        self.for_each_row_n::<N>(stride, |first, w, _| {
+            let mut sum = [0.0; D];
+            for (px, g) in phi_x.iter().zip(&field[first..first + phi_x.len()]) {
+                for a in 0..D {
+                    sum[a] += px * g[a];
+                }
+            }
+            for a in 0..D {
+                out[a] += w * sum[a];
             }
         });
         out
@@ -391,6 +463,21 @@ impl<const D: usize, B: Basis> TensorBasis<D, B> {
     ) {
         for a in 0..D {
             self.axes[a].eval_particle(cell[a], x[a], half_length[a], &mut shape.axes[a]);
+        }
+    }
+
+    /// [`Self::eval_particle`] for the fixed support `N` of every axis
+    /// ([`Basis::eval_particle_n`]; `N = 0`: run-time support).
+    #[inline(always)]
+    pub fn eval_particle_n<const N: usize>(
+        &self,
+        cell: [usize; D],
+        x: [f64; D],
+        half_length: [f64; D],
+        shape: &mut TensorShape<D>,
+    ) {
+        for a in 0..D {
+            self.axes[a].eval_particle_n::<N>(cell[a], x[a], half_length[a], &mut shape.axes[a]);
         }
     }
 

@@ -51,6 +51,15 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
         fields: &mut TensorGridFields<D>,
     ) -> [f64; 4];
 
+    /// How many layers of cells (along the last axis) a particle may move away from the
+    /// cell it was binned in before the particles must be re-sorted: 0 (the default) for
+    /// mappings that need every particle in its current cell's bin (per-cell fits), more
+    /// for mappings whose scatter buffers are widened to match
+    /// ([`super::tensor_scatter::TensorScatter::with_slack`]).
+    fn bin_slack(&self) -> usize {
+        0
+    }
+
     /// Remedies of degenerate cell fits so far (reconstructions only).
     fn remedies(&self) -> RemedyCounts {
         RemedyCounts::default()

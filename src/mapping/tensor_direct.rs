@@ -68,9 +68,10 @@ pub fn half_lengths<const D: usize>(
     }
 }
 
-/// The basis functions at particle `p` (its position, cell and domain).
+/// The basis functions at particle `p` (its position, cell and domain), evaluated for
+/// the fixed support `N` ([`TensorBasis::eval_particle_n`]).
 #[inline(always)]
-pub fn eval_at<const D: usize, B: Basis>(
+pub fn eval_at<const D: usize, B: Basis, const N: usize>(
     basis: &TensorBasis<D, B>,
     particles: &TensorParticles<D>,
     half_length0: &Option<[f64; D]>,
@@ -79,8 +80,16 @@ pub fn eval_at<const D: usize, B: Basis>(
 ) {
     let x = particles.position(p);
     let cell = basis.grid.axis_cells(x);
-    basis.eval_particle(cell, x, half_lengths(particles, half_length0, p), shape);
+    basis.eval_particle_n::<N>(cell, x, half_lengths(particles, half_length0, p), shape);
 }
+
+/// Layers of cells a particle of the direct mapping may stray from its bin before the
+/// particles are re-sorted. The direct mapping needs only that each scatter task's
+/// particles touch the task's (widened) node range, not exact per-cell bins; with one
+/// layer of slack a particle must travel at least a cell before it forces a sort, so a
+/// step at CFL-limited `dt` sorts every ten or more steps instead of on every step with a
+/// grid crossing.
+pub const DIRECT_BIN_SLACK: usize = 1;
 
 /// Scatter buffers of the direct mapping.
 #[derive(Clone, Debug)]
@@ -90,15 +99,27 @@ pub struct TensorDirectMapping<const D: usize> {
     /// Initial half spacing of the particles for particle-domain bases, `None` for point
     /// bases.
     pub half_length0: Option<[f64; D]>,
+    bin_slack: usize,
 }
 
 impl<const D: usize> TensorDirectMapping<D> {
-    /// Buffers for `basis`.
+    /// Buffers for `basis`, with [`DIRECT_BIN_SLACK`] layers of bin slack.
     pub fn new<B: Basis>(basis: &TensorBasis<D, B>, half_length0: Option<[f64; D]>) -> Self {
+        Self::with_bin_slack(basis, half_length0, DIRECT_BIN_SLACK)
+    }
+
+    /// Buffers for `basis` that let a particle stray `slack` layers of cells from its bin
+    /// before a sort (0: sort on every grid crossing).
+    pub fn with_bin_slack<B: Basis>(
+        basis: &TensorBasis<D, B>,
+        half_length0: Option<[f64; D]>,
+        slack: usize,
+    ) -> Self {
         Self {
-            mass_force: TensorScatter::new(basis),
-            momentum: TensorScatter::new(basis),
+            mass_force: TensorScatter::with_slack(basis, slack),
+            momentum: TensorScatter::with_slack(basis, slack),
             half_length0,
+            bin_slack: slack,
         }
     }
 
@@ -133,7 +154,7 @@ impl<const D: usize> TensorDirectMapping<D> {
             |range: Range<usize>, lo, local| {
                 let mut shape = TensorShape::<D>::default();
                 for k in range {
-                    eval_at(basis, p, &half0, k, &mut shape);
+                    eval_at::<D, B, N>(basis, p, &half0, k, &mut shape);
                     let (m, vol) = (p.mass[k], p.volume[k]);
                     let b = match body {
                         TensorBody::Uniform(b) => b,
@@ -145,15 +166,28 @@ impl<const D: usize> TensorDirectMapping<D> {
                             *s = vol * p.stress[stress_index(a, c)][k];
                         }
                     }
-                    shape.for_each_node_n::<N>(&strides, |node, phi, grad| {
-                        let out = &mut local[node - lo];
-                        out[0] += m * phi;
+                    // Per row: m phi_I = (m w) phi_i, and f_I,a = along_a phi_i +
+                    // across_a dphi_i with along_a = m b_a w - sum_{c >= 1} V sigma_ac dw_c,
+                    // across_a = -V sigma_a0 w.
+                    let (phi_x, dphi_x) = shape.x_functions_n::<N>();
+                    shape.for_each_row_n::<N>(&strides, |first, w, dw| {
+                        let row_mass = m * w;
+                        let mut along = [0.0; D];
+                        let mut across = [0.0; D];
                         for a in 0..D {
                             let mut internal = 0.0;
-                            for c in 0..D {
-                                internal += sigma[a][c] * grad[c];
+                            for c in 1..D {
+                                internal += sigma[a][c] * dw[c];
                             }
-                            out[1 + a] += m * b[a] * phi - internal;
+                            along[a] = m * b[a] * w - internal;
+                            across[a] = -(sigma[a][0] * w);
+                        }
+                        let out = &mut local[first - lo..first - lo + phi_x.len()];
+                        for ((o, px), dx) in out.iter_mut().zip(phi_x).zip(dphi_x) {
+                            o[0] += row_mass * px;
+                            for a in 0..D {
+                                o[1 + a] += along[a] * px + across[a] * dx;
+                            }
                         }
                     });
                 }
@@ -199,14 +233,9 @@ impl<const D: usize> TensorDirectMapping<D> {
             |range: Range<usize>, lo, local| {
                 let mut shape = TensorShape::<D>::default();
                 for k in range {
-                    eval_at(basis, p, &half0, k, &mut shape);
+                    eval_at::<D, B, N>(basis, p, &half0, k, &mut shape);
                     let mv: [f64; D] = std::array::from_fn(|a| p.mass[k] * p.v[a][k]);
-                    shape.for_each_node_n::<N>(&strides, |node, phi, _| {
-                        let out = &mut local[node - lo];
-                        for a in 0..D {
-                            out[a] += mv[a] * phi;
-                        }
-                    });
+                    scatter_momentum::<D, N>(&shape, &strides, mv, lo, local);
                 }
             },
         );
@@ -279,7 +308,7 @@ impl<const D: usize> TensorDirectMapping<D> {
                         }
                         None => [0.0; D],
                     };
-                    basis.eval_particle(cell, position, half, &mut shape);
+                    basis.eval_particle_n::<N>(cell, position, half, &mut shape);
                     let dv = shape.interpolate_n::<N>(&strides, acceleration);
                     let mut mv = [0.0; D];
                     let mut speed2 = 0.0;
@@ -291,12 +320,7 @@ impl<const D: usize> TensorDirectMapping<D> {
                         sum[a] += mv[a];
                     }
                     sum[3] += mass[k] * speed2.sqrt();
-                    shape.for_each_node_n::<N>(&strides, |node, phi, _| {
-                        let out = &mut local[node - lo];
-                        for a in 0..D {
-                            out[a] += mv[a] * phi;
-                        }
-                    });
+                    scatter_momentum::<D, N>(&shape, &strides, mv, lo, local);
                 }
             },
         );
@@ -308,6 +332,28 @@ impl<const D: usize> TensorDirectMapping<D> {
         }
         total
     }
+}
+
+/// `local[I - lo] += m_p v_p phi_I` over the support of `shape`, sum-factorised: per row
+/// `(m_p v_p w) phi^0_i` ([`TensorShape::for_each_row_n`]).
+#[inline(always)]
+fn scatter_momentum<const D: usize, const N: usize>(
+    shape: &TensorShape<D>,
+    strides: &[usize; D],
+    momentum: [f64; D],
+    lo: usize,
+    local: &mut [[f64; D]],
+) {
+    let (phi_x, _) = shape.x_functions_n::<N>();
+    shape.for_each_row_n::<N>(strides, |first, w, _| {
+        let row: [f64; D] = std::array::from_fn(|a| momentum[a] * w);
+        let out = &mut local[first - lo..first - lo + phi_x.len()];
+        for (o, px) in out.iter_mut().zip(phi_x) {
+            for a in 0..D {
+                o[a] += row[a] * px;
+            }
+        }
+    });
 }
 
 /// Split each component array into consecutive chunks of the lengths of `ranges` (which
@@ -341,6 +387,10 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
 
     fn particle_domains(&self) -> &Option<[f64; D]> {
         &self.half_length0
+    }
+
+    fn bin_slack(&self) -> usize {
+        self.bin_slack
     }
 
     fn map_mass_and_force<B: Basis>(

@@ -96,7 +96,7 @@ impl<const D: usize> StencilAssembly<D> {
     /// The assembly for `basis`, whose evaluations have at most `reach + 1` functions per
     /// axis.
     pub fn new<B: Basis>(basis: &TensorBasis<D, B>, reach: usize) -> Self {
-        let tasks = scatter_tasks(basis);
+        let tasks = scatter_tasks(basis, 0);
         let side = 2 * reach + 1;
         let width = side.pow(D as u32);
         let mut offsets = Vec::with_capacity(tasks.len());

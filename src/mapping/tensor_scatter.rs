@@ -9,6 +9,12 @@
 //! owned node ranges. The partition depends only on the grid, never on the thread count,
 //! and so every sum happens in the same order: results are bitwise identical for any
 //! number of threads.
+//!
+//! A scatter built [`TensorScatter::with_slack`] widens each task's node range by `slack`
+//! layers of cells on either side, so that a particle binned into a task at the last sort
+//! may have moved up to `slack` layers away along the last axis and still scatter into its
+//! task's buffer: the particles need re-sorting only when one strays further (see
+//! `TensorMapping::bin_slack`). The widening changes no sum, only which buffer holds it.
 
 use crate::grid::{Basis, TensorBasis};
 use rayon::prelude::*;
@@ -34,8 +40,12 @@ pub struct TensorScatter<const W: usize> {
     num_dofs: usize,
 }
 
-/// The task partition of `basis` (see the module doc).
-pub fn scatter_tasks<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> Vec<ScatterTask> {
+/// The task partition of `basis`, each task's nodes widened by `slack` layers of cells on
+/// either side (see the module doc).
+pub fn scatter_tasks<const D: usize, B: Basis>(
+    basis: &TensorBasis<D, B>,
+    slack: usize,
+) -> Vec<ScatterTask> {
     let cells_per_layer = basis.grid.cells_per_layer();
     let layers = basis.grid.axes[D - 1].cells;
     let layers_per_task = CELLS_PER_TASK.div_ceil(cells_per_layer).clamp(1, layers);
@@ -45,7 +55,7 @@ pub fn scatter_tasks<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> Vec
     let mut start = 0;
     while start < layers {
         let end = (start + layers_per_task).min(layers);
-        let dofs = basis.layer_dofs(start..end);
+        let dofs = basis.layer_dofs(start.saturating_sub(slack)..(end + slack).min(layers));
         let nodes = dofs.start * node_stride..dofs.end * node_stride;
         let len = nodes.len();
         tasks.push(ScatterTask {
@@ -60,9 +70,15 @@ pub fn scatter_tasks<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> Vec
 }
 
 impl<const W: usize> TensorScatter<W> {
-    /// Buffers for `basis`.
+    /// Buffers for `basis`, for particles binned by their current cell.
     pub fn new<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> Self {
-        let tasks = scatter_tasks(basis);
+        Self::with_slack(basis, 0)
+    }
+
+    /// Buffers for `basis`, for particles at most `slack` layers of cells (last axis) away
+    /// from the cell they were binned in.
+    pub fn with_slack<const D: usize, B: Basis>(basis: &TensorBasis<D, B>, slack: usize) -> Self {
+        let tasks = scatter_tasks(basis, slack);
         let total = tasks.last().map_or(0, |t| t.offset + t.nodes.len());
         Self {
             tasks,
@@ -200,7 +216,7 @@ mod tests {
         for (cells, order) in [([40usize, 30], 1usize), ([7, 200], 3), ([300, 1], 2)] {
             let grid = TensorGrid::new([1.0, 1.0], cells);
             let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
-            let tasks = scatter_tasks(&basis);
+            let tasks = scatter_tasks(&basis, 0);
             assert_eq!(tasks[0].cells.start, 0);
             assert_eq!(tasks.last().unwrap().cells.end, grid.num_cells());
             assert!(tasks.windows(2).all(|w| w[0].cells.end == w[1].cells.start));
@@ -209,6 +225,46 @@ mod tests {
                 .all(|w| w[0].nodes.start < w[1].nodes.start));
             assert_eq!(tasks.last().unwrap().nodes.end, basis.num_dofs());
         }
+    }
+
+    #[test]
+    fn a_widened_scatter_takes_particles_a_layer_away_from_their_bin() {
+        // Each "particle" is binned in cell `c` but sits one layer up (or down, on odd
+        // columns) and scatters 1 to the four nodes of the cell it sits in: with one layer
+        // of slack every contribution lands, and the sums equal a serial count.
+        let (nx, ny) = (9, 700);
+        let grid = TensorGrid::new([1.0, 1.0], [nx, ny]);
+        let basis = TensorBasis::new(grid, LinearBasis::new);
+        let cell_start: Vec<usize> = (0..=grid.num_cells()).collect();
+        let sits_in = |cell: usize| {
+            let (i, j) = (cell % nx, cell / nx);
+            let j = if i % 2 == 0 {
+                (j + 1).min(ny - 1)
+            } else {
+                j.saturating_sub(1)
+            };
+            (i, j)
+        };
+        let strides = *basis.strides();
+        let mut expected = vec![[0.0; 1]; basis.num_dofs()];
+        for cell in 0..grid.num_cells() {
+            let (i, j) = sits_in(cell);
+            for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                expected[(i + di) * strides[0] + (j + dj) * strides[1]][0] += 1.0;
+            }
+        }
+        let mut scatter = TensorScatter::<1>::with_slack(&basis, 1);
+        assert!(scatter.tasks().len() > 2);
+        let mut out = vec![[0.0; 1]; basis.num_dofs()];
+        scatter.scatter(&cell_start, &mut out, |particles, lo, local| {
+            for cell in particles {
+                let (i, j) = sits_in(cell);
+                for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    local[(i + di) * strides[0] + (j + dj) * strides[1] - lo][0] += 1.0;
+                }
+            }
+        });
+        assert_eq!(out, expected);
     }
 
     #[test]

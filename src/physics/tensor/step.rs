@@ -10,7 +10,9 @@
 //! 4. x_p += dt phi^T v, u_p += dt phi^T v, L_p = sum_I v_I (x) grad phi_I
 //! 5. F_p <- (I + dt L_p) F_p, V_p = det F_p V_p^0, rho_p = m_p / V_p, sigma_p = law(...)
 //! ```
-//! then the new cells, the counting sort when a particle changed cell, and the
+//! then the new cells, the counting sort when the mapping's bins went stale (a particle
+//! changed cell for per-cell fits; strayed more than `TensorMapping::bin_slack` layers of
+//! cells from its bin for the direct mapping), and the
 //! conservation errors of the mapping: mass `|sum_I m_I - sum_p m_p| / sum_p m_p`, and per
 //! momentum component `|sum_I p_I - sum_p m_p v_p| / sum_p m_p |v_p|`, the largest over
 //! the components.
@@ -40,6 +42,8 @@ pub struct TensorStepReport {
     /// `None` when all particles are at rest.
     pub momentum_error: Option<f64>,
     pub crossings: usize,
+    /// Whether the particles were re-sorted by cell after the step.
+    pub sorted: bool,
     /// Kinetic energy `sum_p m_p |v_p|^2 / 2` and stored energy after the step.
     pub energies: (f64, f64),
 }
@@ -59,6 +63,8 @@ pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorD
     /// Seconds per phase so far (`assembly_seconds` is read from the mapping).
     timings: StepTimings,
     order: Vec<usize>,
+    /// Last-axis cell index of each particle at the last sort (its bin's layer).
+    bin_layer: Vec<u32>,
     total_mass: f64,
 }
 
@@ -83,11 +89,25 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             mass_solve: None,
             timings: StepTimings::default(),
             order: Vec::new(),
+            bin_layer: Vec::new(),
             total_mass: deterministic_sum(particles.len(), |p| particles.mass[p]),
         };
-        let cells = stepper.basis.grid.num_cells();
-        particles.sort_by_cell(cells, &mut stepper.cell_start, &mut stepper.order);
+        stepper.sort(particles);
         stepper
+    }
+
+    /// Counting-sort `particles` by cell and record each particle's bin layer.
+    fn sort(&mut self, particles: &mut TensorParticles<D>) {
+        let cells = self.basis.grid.num_cells();
+        particles.sort_by_cell(cells, &mut self.cell_start, &mut self.order);
+        let per_layer = self.basis.grid.cells_per_layer();
+        self.bin_layer.clear();
+        self.bin_layer.extend(
+            particles
+                .cell
+                .iter()
+                .map(|&c| u32::try_from(c / per_layer).unwrap_or(u32::MAX)),
+        );
     }
 
     /// Solve with the consistent mass (the mapping must assemble it).
@@ -187,10 +207,15 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             self.mapping.particle_domains(),
             &fields.velocity,
         );
+        let bins = Bins {
+            layer: &self.bin_layer,
+            slack: self.mapping.bin_slack(),
+        };
         let outcome = with_fixed_support!(basis, N => match self.material {
             TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor, N>(
                 basis,
                 half0,
+                bins,
                 particles,
                 velocity,
                 usl_acceleration,
@@ -200,6 +225,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor, N>(
                 basis,
                 half0,
+                bins,
                 particles,
                 velocity,
                 usl_acceleration,
@@ -223,9 +249,13 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 field => Error::NonFinite { field, step, time },
             });
         }
-        if outcome.crossings > 0 {
-            let cells = self.basis.grid.num_cells();
-            particles.sort_by_cell(cells, &mut self.cell_start, &mut self.order);
+        let sorted = if bins.slack == 0 {
+            outcome.crossings > 0
+        } else {
+            outcome.strays > 0
+        };
+        if sorted {
+            self.sort(particles);
         }
         self.timings.particle_update_seconds += clock.lap();
         self.timings.mass_solve_seconds += solve_seconds;
@@ -234,6 +264,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             mass_error,
             momentum_error,
             crossings: outcome.crossings,
+            sorted,
             energies: outcome.energies,
         })
     }
@@ -326,11 +357,31 @@ fn particle_momentum<const D: usize>(p: &TensorParticles<D>) -> ([f64; 3], f64) 
 
 struct Outcome {
     crossings: usize,
+    /// Particles now more than `Bins::slack` layers of cells away from their bin.
+    strays: usize,
     /// First failing particle (lowest index) and the failing field ("volume", "left" for
     /// a particle outside the grid, or the non-finite field's name).
     failure: Option<(usize, &'static str)>,
     /// Kinetic and stored energy after the step (summed per chunk, then in chunk order).
     energies: (f64, f64),
+}
+
+/// The binning the particle update checks against: the layer of each particle's bin and
+/// how far a particle may stray from it ([`TensorMapping::bin_slack`]).
+#[derive(Clone, Copy)]
+struct Bins<'a> {
+    layer: &'a [u32],
+    slack: usize,
+}
+
+/// Number of stored stress components a `D`-dimensional law can make non-zero: `xz` and
+/// `yz` (the last two) stay zero below 3D and are neither read nor written there.
+const fn live_stress_components(d: usize) -> usize {
+    if d < 3 {
+        4
+    } else {
+        6
+    }
 }
 
 /// `det F` of a `D x D` matrix.
@@ -434,12 +485,14 @@ fn chunks_of<'a, const D: usize>(
 fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
     basis: &TensorBasis<D, B>,
     half_length0: &Option<[f64; D]>,
+    bins: Bins<'_>,
     particles: &mut TensorParticles<D>,
     velocity: &[[f64; D]],
     usl_acceleration: Option<&[[f64; D]]>,
     dt: f64,
     law: L,
 ) -> Outcome {
+    let live = live_stress_components(D);
     let n = particles.len();
     let strides = *basis.strides();
     let grid = basis.grid;
@@ -451,11 +504,11 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
     let volume0 = std::mem::take(&mut particles.volume0);
     let chunks = chunks_of(particles, &ranges);
     #[allow(clippy::type_complexity)]
-    let results: Vec<(usize, Option<(usize, &'static str)>, f64, f64)> = chunks
+    let results: Vec<(usize, usize, Option<(usize, &'static str)>, f64, f64)> = chunks
         .into_par_iter()
         .map(|c| {
             let mut shape = TensorShape::<D>::default();
-            let mut crossings = 0;
+            let (mut crossings, mut strays) = (0, 0);
             let mut failure = None;
             let (mut kinetic, mut stored) = (0.0, 0.0);
             for i in 0..c.volume.len() {
@@ -468,7 +521,7 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
                     None => [0.0; D],
                 };
                 let cell = grid.axis_cells(x);
-                basis.eval_particle(cell, x, half, &mut shape);
+                basis.eval_particle_n::<N>(cell, x, half, &mut shape);
                 let (v_grid, l) = shape.interpolate_with_gradient_n::<N>(&strides, velocity);
                 if let Some(a) = usl_acceleration {
                     let dv = shape.interpolate_n::<N>(&strides, a);
@@ -501,7 +554,8 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
                 let volume = j * volume0[k];
                 c.volume[i] = volume;
                 c.density[i] = mass[k] / volume;
-                let mut stress: [f64; 6] = std::array::from_fn(|s| c.stress[s][i]);
+                let mut stress: [f64; 6] =
+                    std::array::from_fn(|s| if s < live { c.stress[s][i] } else { 0.0 });
                 stored += law.update_with_energy(&mut stress, &dl, &f, j, volume0[k]);
                 let mut speed2 = 0.0;
                 for d in 0..D {
@@ -509,7 +563,7 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
                 }
                 kinetic += 0.5 * mass[k] * speed2;
                 let mut finite = true;
-                for (s, value) in stress.iter().enumerate() {
+                for (s, value) in stress.iter().enumerate().take(live) {
                     c.stress[s][i] = *value;
                     finite &= value.is_finite();
                 }
@@ -524,28 +578,33 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
                 } else {
                     None
                 };
-                match (bad, grid.cell_of(new_x)) {
-                    (None, Some(e)) => {
+                match (bad, grid.axis_cells_of(new_x)) {
+                    (None, Some(index)) => {
+                        let e = grid.cell_index(index);
                         crossings += usize::from(e != c.cell[i]);
                         c.cell[i] = e;
+                        let layer = index[D - 1].abs_diff(bins.layer[k] as usize);
+                        strays += usize::from(layer > bins.slack);
                     }
                     (None, None) => failure = failure.or(Some((k, "left"))),
                     (Some(b), _) => failure = failure.or(Some((k, b))),
                 }
             }
-            (crossings, failure, kinetic, stored)
+            (crossings, strays, failure, kinetic, stored)
         })
         .collect();
     particles.mass = mass;
     particles.volume0 = volume0;
     let mut outcome = Outcome {
         crossings: 0,
+        strays: 0,
         failure: None,
         energies: (0.0, 0.0),
     };
     // In chunk order: deterministic for any thread count.
-    for (c, f, kinetic, stored) in results {
+    for (c, s, f, kinetic, stored) in results {
         outcome.crossings += c;
+        outcome.strays += s;
         outcome.failure = outcome.failure.or(f);
         outcome.energies.0 += kinetic;
         outcome.energies.1 += stored;
