@@ -166,48 +166,19 @@ impl<const D: usize> TensorShape<D> {
         stride: &[usize; D],
         mut visit: impl FnMut(usize, f64, [f64; D]),
     ) {
-        let s = &self.axes;
-        match D {
-            1 => {
-                for i in 0..support::<N>(&s[0]) {
-                    let mut g = [0.0; D];
-                    g[0] = s[0].dphi[i];
-                    visit(s[0].first + i, s[0].phi[i], g);
+        // Row by row (the products of [`Self::for_each_row_n`] are the ones a node loop
+        // forms, in the same order: bitwise the same values).
+        let (phi_x, dphi_x) = self.x_functions_n::<N>();
+        self.for_each_row_n::<N>(stride, |first, w, dw| {
+            for (i, (&px, &dx)) in phi_x.iter().zip(dphi_x).enumerate() {
+                let mut g = [0.0; D];
+                g[0] = dx * w;
+                for (g, dw) in g.iter_mut().zip(&dw).skip(1) {
+                    *g = px * dw;
                 }
+                visit(first + i, px * w, g);
             }
-            2 => {
-                for j in 0..support::<N>(&s[1]) {
-                    let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
-                    let row = (s[1].first + j) * stride[1] + s[0].first;
-                    for i in 0..support::<N>(&s[0]) {
-                        let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
-                        let mut g = [0.0; D];
-                        g[0] = dx * py;
-                        g[1] = px * dy;
-                        visit(row + i, px * py, g);
-                    }
-                }
-            }
-            _ => {
-                for k in 0..support::<N>(&s[2]) {
-                    let (pz, dz) = (s[2].phi[k], s[2].dphi[k]);
-                    let plane = (s[2].first + k) * stride[2];
-                    for j in 0..support::<N>(&s[1]) {
-                        let (py, dy) = (s[1].phi[j], s[1].dphi[j]);
-                        let row = plane + (s[1].first + j) * stride[1] + s[0].first;
-                        let (pyz, dyz, pydz) = (py * pz, dy * pz, py * dz);
-                        for i in 0..support::<N>(&s[0]) {
-                            let (px, dx) = (s[0].phi[i], s[0].dphi[i]);
-                            let mut g = [0.0; D];
-                            g[0] = dx * pyz;
-                            g[1] = px * dyz;
-                            g[2] = px * pydz;
-                            visit(row + i, px * pyz, g);
-                        }
-                    }
-                }
-            }
-        }
+        });
     }
 
     /// The x-axis functions `(phi^0_i, dphi^0_i)` of every row of the support (see
@@ -461,9 +432,7 @@ impl<const D: usize, B: Basis> TensorBasis<D, B> {
         half_length: [f64; D],
         shape: &mut TensorShape<D>,
     ) {
-        for a in 0..D {
-            self.axes[a].eval_particle(cell[a], x[a], half_length[a], &mut shape.axes[a]);
-        }
+        self.eval_particle_n::<0>(cell, x, half_length, shape);
     }
 
     /// [`Self::eval_particle`] for the fixed support `N` of every axis
