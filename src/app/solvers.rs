@@ -11,8 +11,8 @@ use crate::error::{Error, Result};
 use crate::linalg::assembly::{interior, mass_1d, mass_2d, QuadraturePoint, SplineSpace};
 use crate::linalg::{
     BandedCholesky, CoarseOperators, CoarseSolver, ConjugateGradient, CsrMatrix, DirectCholesky,
-    Hierarchy, Jacobi, KroneckerFactors, KroneckerPreconditioner, LinearSolver, PMultigrid, Pcg,
-    PmgPreconditioner, PmgSettings, Smoother, TransferKind,
+    GalerkinStencil, Hierarchy, Jacobi, KroneckerFactors, KroneckerPreconditioner, LinearSolver,
+    PMultigrid, Pcg, PmgPreconditioner, PmgSettings, Smoother, TransferKind,
 };
 
 /// Most iterations of an iterative solve before it is reported as a failure.
@@ -154,8 +154,15 @@ fn hierarchy(geometry: &SolverGeometry, transfers: TransferKind) -> Result<Hiera
     let unit = match (geometry.directions.as_slice(), geometry.coarse_operators) {
         ([x], CoarseOperators::Rediscretised) => Hierarchy::spline_1d(x, keep, transfers)?,
         ([x, y], CoarseOperators::Rediscretised) => Hierarchy::spline_2d(x, y, keep, transfers)?,
-        ([x], CoarseOperators::Galerkin) => return Hierarchy::galerkin_spline_1d(x, keep),
-        ([x, y], CoarseOperators::Galerkin) => return Hierarchy::galerkin_spline_2d(x, y, keep),
+        // 1D: the exact product is banded and the coarse Cholesky factors it cheaply; 2D:
+        // its stencil widens on every level (529 entries per row on the order-1 level at
+        // p = 3), so the coarse operators keep their own mass stencil (`galerkin.rs`).
+        ([x], CoarseOperators::Galerkin) => {
+            return Hierarchy::galerkin_spline_1d(x, keep, GalerkinStencil::Exact)
+        }
+        ([x, y], CoarseOperators::Galerkin) => {
+            return Hierarchy::galerkin_spline_2d(x, y, keep, GalerkinStencil::Native)
+        }
         (directions, _) => {
             return Err(Error::invalid(
                 "solver.kind",

@@ -25,8 +25,8 @@ pub use csr::CsrMatrix;
 pub use direct::DirectCholesky;
 pub use kron::{KroneckerFactors, KroneckerPreconditioner};
 pub use pmg::{
-    CoarseOperators, CoarseSolver, Hierarchy, PMultigrid, PmgCg, PmgPreconditioner, PmgSettings,
-    Smoother, TransferKind,
+    CoarseOperators, CoarseSolver, GalerkinStencil, Hierarchy, PMultigrid, PmgCg,
+    PmgPreconditioner, PmgSettings, Smoother, TransferKind,
 };
 
 use crate::error::Result;

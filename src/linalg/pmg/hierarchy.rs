@@ -44,6 +44,7 @@
 //! product of the 1D ones (`P = P_y (x) P_x`, `M^L = M^L_y (x) M^L_x`, DOF
 //! `i = i_y n_x + i_x`) before the restriction.
 
+use super::galerkin::{transpose_with_positions, GalerkinProducts, GalerkinStencil};
 use crate::error::{Error, Result};
 use crate::linalg::assembly::{mass_1d, mixed_mass_1d, SplineSpace};
 use crate::linalg::CsrMatrix;
@@ -83,30 +84,7 @@ pub struct Hierarchy {
     galerkin: Option<GalerkinProducts>,
 }
 
-/// Symbolic data of the Galerkin products, built for one fine pattern.
-#[derive(Clone, Debug, Default)]
-struct GalerkinProducts {
-    /// The unmasked prolongations.
-    prolongations: Vec<CsrMatrix>,
-    /// `parents[l]`: rows = level `l + 1` DOFs, columns = their parents on level `l`.
-    parents: Vec<Option<CsrMatrix>>,
-    /// Position in `R_l.values` of every entry of `I_l.values`.
-    transpose_position: Vec<Vec<usize>>,
-    /// `A_l I_l`.
-    products: Vec<CsrMatrix>,
-    /// Pattern of the fine matrix the products were built for.
-    fine_row_start: Vec<usize>,
-    fine_col_index: Vec<usize>,
-    built: bool,
-    accumulator: Vec<f64>,
-    fine_decoupled: Vec<bool>,
-    coarse_eliminated: Vec<bool>,
-}
-
-/// Relative diagonal shift of the Galerkin coarse operators (module doc).
-pub(crate) const GALERKIN_SHIFT: f64 = 1e-8;
-
-fn failure(reason: String) -> Error {
+pub(super) fn failure(reason: String) -> Error {
     Error::Solver {
         solver: "pmg".into(),
         reason,
@@ -184,7 +162,7 @@ impl Hierarchy {
             Some(p) => p.into_iter().map(Some).collect(),
             None => vec![None; prolongations.len()],
         };
-        Self::galerkin_with_sizes(sizes, prolongations, parents)
+        Self::galerkin_with_sizes(sizes, prolongations, parents, None)
     }
 
     /// A single Galerkin level of `size` DOFs (order 1: the V-cycle is the coarse solve).
@@ -205,6 +183,7 @@ impl Hierarchy {
         sizes: Vec<usize>,
         prolongations: Vec<CsrMatrix>,
         parents: Vec<Option<CsrMatrix>>,
+        stencils: Option<Vec<CsrMatrix>>,
     ) -> Result<Self> {
         let mut transpose_position = Vec::with_capacity(prolongations.len());
         let mut restrictions = Vec::with_capacity(prolongations.len());
@@ -235,12 +214,12 @@ impl Hierarchy {
             sizes,
             fine: None,
             restrictions,
-            galerkin: Some(GalerkinProducts {
-                prolongations: prolongations.clone(),
+            galerkin: Some(GalerkinProducts::new(
+                prolongations.clone(),
                 parents,
+                stencils,
                 transpose_position,
-                ..GalerkinProducts::default()
-            }),
+            )?),
             prolongations,
         })
     }
@@ -277,23 +256,25 @@ impl Hierarchy {
     /// matrix assembled on `space` with any density and constraints; an order-1 (or 0)
     /// space gives a single level.
     pub fn galerkin_1d(space: &SplineSpace) -> Result<Self> {
-        Self::galerkin_spline_1d(space, |n| vec![true; n])
+        Self::galerkin_spline_1d(space, |n| vec![true; n], GalerkinStencil::Exact)
     }
 
     /// Galerkin hierarchy over all DOFs of the tensor product of `x` and `y`.
-    pub fn galerkin_2d(x: &SplineSpace, y: &SplineSpace) -> Result<Self> {
-        Self::galerkin_spline_2d(x, y, |n| vec![true; n])
+    pub fn galerkin_2d(x: &SplineSpace, y: &SplineSpace, stencil: GalerkinStencil) -> Result<Self> {
+        Self::galerkin_spline_2d(x, y, |n| vec![true; n], stencil)
     }
 
     /// Galerkin hierarchy over the DOFs with `keep(n)[i]` of every order (as in
-    /// [`Hierarchy::spline_1d`]), for a fine matrix of any density on those DOFs.
+    /// [`Hierarchy::spline_1d`]), for a fine matrix of any density on those DOFs, with
+    /// coarse operators of `stencil` (see `galerkin.rs`).
     pub fn galerkin_spline_1d(
         space: &SplineSpace,
         keep: impl Fn(usize) -> Vec<bool>,
+        stencil: GalerkinStencil,
     ) -> Result<Self> {
         let levels = SplineLevels::one_dimensional(space);
         let keeps: Vec<Vec<bool>> = levels.functions.iter().map(|&n| keep(n)).collect();
-        levels.galerkin(&keeps)
+        levels.galerkin(&keeps, stencil)
     }
 
     /// Galerkin hierarchy over the tensor-product DOFs kept by `keep` (as in
@@ -302,10 +283,11 @@ impl Hierarchy {
         x: &SplineSpace,
         y: &SplineSpace,
         keep: impl Fn(usize) -> Vec<bool>,
+        stencil: GalerkinStencil,
     ) -> Result<Self> {
         let levels = SplineLevels::two_dimensional(x, y)?;
         let keeps = levels.tensor_keeps(x, y, keep);
-        levels.galerkin(&keeps)
+        levels.galerkin(&keeps, stencil)
     }
 
     /// Number of levels.
@@ -352,145 +334,13 @@ impl Hierarchy {
         let Some(g) = self.galerkin.as_mut() else {
             return Ok(());
         };
-        if !g.built || g.fine_row_start != a.row_start || g.fine_col_index != a.col_index {
-            g.build(a, &mut self.coarse, &self.restrictions);
-        }
-        for l in 0..self.prolongations.len() {
-            let (done, rest) = self.coarse.split_at_mut(l);
-            let fine = if l == 0 { a } else { &done[l - 1] };
-            let coarse = &mut rest[0];
-            let prolongation = &mut self.prolongations[l];
-            let unmasked = &g.prolongations[l];
-            g.fine_decoupled.clear();
-            g.fine_decoupled
-                .extend((0..fine.rows).map(|i| fine.row_is_decoupled(i)));
-            // Coarse DOFs reached by no kept fine DOF, or with an eliminated parent.
-            g.coarse_eliminated.clear();
-            g.coarse_eliminated.resize(coarse.rows, true);
-            for i in (0..fine.rows).filter(|&i| !g.fine_decoupled[i]) {
-                for k in unmasked.row_start[i]..unmasked.row_start[i + 1] {
-                    if unmasked.values[k] != 0.0 {
-                        g.coarse_eliminated[unmasked.col_index[k]] = false;
-                    }
-                }
-            }
-            if let Some(parents) = &g.parents[l] {
-                for j in 0..parents.rows {
-                    let range = parents.row_start[j]..parents.row_start[j + 1];
-                    if parents.col_index[range]
-                        .iter()
-                        .any(|&i| g.fine_decoupled[i])
-                    {
-                        g.coarse_eliminated[j] = true;
-                    }
-                }
-            }
-            for i in 0..fine.rows {
-                for k in prolongation.row_start[i]..prolongation.row_start[i + 1] {
-                    let keep = !g.fine_decoupled[i] && !g.coarse_eliminated[unmasked.col_index[k]];
-                    prolongation.values[k] = if keep { unmasked.values[k] } else { 0.0 };
-                }
-            }
-            let restriction = &mut self.restrictions[l];
-            for (&position, &v) in g.transpose_position[l].iter().zip(&prolongation.values) {
-                restriction.values[position] = v;
-            }
-            multiply_into(fine, prolongation, &mut g.products[l], &mut g.accumulator);
-            multiply_into(restriction, &g.products[l], coarse, &mut g.accumulator);
-            for j in 0..coarse.rows {
-                for k in coarse.row_start[j]..coarse.row_start[j + 1] {
-                    if coarse.col_index[k] == j {
-                        coarse.values[k] *= 1.0 + GALERKIN_SHIFT;
-                    }
-                }
-            }
-            for (j, _) in g.coarse_eliminated.iter().enumerate().filter(|(_, &e)| e) {
-                // Row and column j of I^T A I vanish: make it an identity row.
-                let range = coarse.row_start[j]..coarse.row_start[j + 1];
-                let diagonal = coarse.col_index[range.clone()]
-                    .iter()
-                    .position(|&c| c == j)
-                    .ok_or_else(|| {
-                        failure(format!(
-                            "level {} DOF {j} is eliminated and its Galerkin row stores no \
-                             diagonal",
-                            l + 1
-                        ))
-                    })?;
-                coarse.values[range.start + diagonal] = 1.0;
-            }
-        }
-        Ok(())
+        g.update(
+            a,
+            &mut self.coarse,
+            &mut self.prolongations,
+            &mut self.restrictions,
+        )
     }
-}
-
-impl GalerkinProducts {
-    /// Patterns of `A_l I_l` and `I_l^T A_l I_l` for the pattern of `a` (values are
-    /// overwritten by the numeric pass).
-    fn build(&mut self, a: &CsrMatrix, coarse: &mut [CsrMatrix], restrictions: &[CsrMatrix]) {
-        self.products.clear();
-        for l in 0..self.prolongations.len() {
-            let fine = if l == 0 { a } else { &coarse[l - 1] };
-            let product = fine.matmul(&self.prolongations[l]);
-            coarse[l] = restrictions[l].matmul(&product);
-            self.products.push(product);
-        }
-        self.fine_row_start.clone_from(&a.row_start);
-        self.fine_col_index.clone_from(&a.col_index);
-        self.built = true;
-    }
-}
-
-/// `out = a b` into the fixed pattern of `out` (built by [`CsrMatrix::matmul`] from the
-/// same patterns); `accumulator` is scratch of `out.cols` entries, left zero.
-fn multiply_into(a: &CsrMatrix, b: &CsrMatrix, out: &mut CsrMatrix, accumulator: &mut Vec<f64>) {
-    accumulator.resize(out.cols, 0.0);
-    for i in 0..a.rows {
-        for k in a.row_start[i]..a.row_start[i + 1] {
-            let (l, v) = (a.col_index[k], a.values[k]);
-            for m in b.row_start[l]..b.row_start[l + 1] {
-                accumulator[b.col_index[m]] += v * b.values[m];
-            }
-        }
-        for k in out.row_start[i]..out.row_start[i + 1] {
-            let j = out.col_index[k];
-            out.values[k] = accumulator[j];
-            accumulator[j] = 0.0;
-        }
-    }
-}
-
-/// `m^T` and, for every entry `k` of `m`, its position in the transpose's values.
-fn transpose_with_positions(m: &CsrMatrix) -> (CsrMatrix, Vec<usize>) {
-    let mut row_start = vec![0usize; m.cols + 1];
-    for &j in &m.col_index {
-        row_start[j + 1] += 1;
-    }
-    for j in 0..m.cols {
-        row_start[j + 1] += row_start[j];
-    }
-    let mut next = row_start.clone();
-    let mut col_index = vec![0; m.nnz()];
-    let mut values = vec![0.0; m.nnz()];
-    let mut position = Vec::with_capacity(m.nnz());
-    for i in 0..m.rows {
-        for k in m.row_start[i]..m.row_start[i + 1] {
-            let j = m.col_index[k];
-            let at = next[j];
-            col_index[at] = i;
-            values[at] = m.values[k];
-            position.push(at);
-            next[j] += 1;
-        }
-    }
-    let transpose = CsrMatrix {
-        rows: m.cols,
-        cols: m.rows,
-        row_start,
-        col_index,
-        values,
-    };
-    (transpose, position)
 }
 
 fn check_transfers(
@@ -693,7 +543,7 @@ impl SplineLevels {
         Hierarchy::rediscretised(operators, prolongations, restrictions)
     }
 
-    fn galerkin(&self, keeps: &[Vec<bool>]) -> Result<Hierarchy> {
+    fn galerkin(&self, keeps: &[Vec<bool>], stencil: GalerkinStencil) -> Result<Hierarchy> {
         self.check_keeps(keeps)?;
         if self.mixed.is_empty() {
             return Ok(Hierarchy::single_level(
@@ -707,6 +557,12 @@ impl SplineLevels {
         let parents = (0..self.parents.len())
             .map(|l| Some(self.parents[l].submatrix(&keeps[l + 1], &keeps[l])))
             .collect();
-        Hierarchy::galerkin_with_sizes(sizes, self.prolongations(keeps)?, parents)
+        // The pattern of every coarse level's own (restricted) mass matrix.
+        let stencils = (stencil == GalerkinStencil::Native).then(|| {
+            (1..keeps.len())
+                .map(|l| self.masses[l].submatrix(&keeps[l], &keeps[l]))
+                .collect()
+        });
+        Hierarchy::galerkin_with_sizes(sizes, self.prolongations(keeps)?, parents, stencils)
     }
 }

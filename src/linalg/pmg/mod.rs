@@ -36,11 +36,13 @@
 //! mat-vecs use [`CsrMatrix::par_mul_vec`] and every dot product is serial, so results are
 //! bitwise the same for any number of threads.
 
+mod galerkin;
 mod hierarchy;
 mod smoother;
 #[cfg(test)]
 mod tests;
 
+pub use galerkin::GalerkinStencil;
 pub use hierarchy::{CoarseOperators, Hierarchy, TransferKind};
 use smoother::LevelSmoother;
 pub use smoother::Smoother;

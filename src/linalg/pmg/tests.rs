@@ -311,7 +311,7 @@ fn galerkin_levels_mask_constrained_dofs_and_match_the_direct_solve() {
                         empty += 1;
                         expected.values[k] = 1.0;
                     } else {
-                        expected.values[k] *= 1.0 + super::hierarchy::GALERKIN_SHIFT;
+                        expected.values[k] *= 1.0 + super::galerkin::GALERKIN_SHIFT;
                     }
                 }
                 assert_eq!(empty, identity_rows);
@@ -353,7 +353,7 @@ fn two_dimensional_galerkin_levels_with_variable_density_and_dirichlet_rows() {
         },
         CoarseSolver::BandedCholesky,
     ] {
-        let hierarchy = Hierarchy::galerkin_2d(&space, &space).unwrap();
+        let hierarchy = Hierarchy::galerkin_2d(&space, &space, GalerkinStencil::Exact).unwrap();
         assert_eq!(hierarchy.sizes(), &[81, 64, 49]);
         let settings = PmgSettings {
             smoother: Smoother::SymmetricGaussSeidel,
@@ -390,6 +390,130 @@ fn two_dimensional_galerkin_levels_with_variable_density_and_dirichlet_rows() {
         .solve(&a, &b, &mut y)
         .unwrap();
         assert!(stats.iterations <= 12, "{coarse:?}: {stats:?}");
+        assert!(relative_difference(&y, &exact) < 1e-8);
+    }
+}
+
+#[test]
+fn native_galerkin_stencils_keep_the_mass_pattern_lump_the_rest_and_stay_spd() {
+    // The exact order-1 Galerkin level of a p = 3 matrix reaches 11 functions per side; the
+    // native one keeps the 3 x 3 stencil of the order-1 mass, adds the dropped magnitudes
+    // to the diagonal, dominates the exact operator (x^T (N - E) x >= 0) and still gives a
+    // V-cycle that converges, alone and as CG's preconditioner.
+    use crate::linalg::assembly::mass_2d;
+    let space = SplineSpace::new(3, 10, 1.0).unwrap();
+    let n = space.functions();
+    let mut a = mass_2d(&space, &space, 4, |q| 1.0 + 0.9 * (q.x[0] * q.x[1]).sin());
+    let inner = interior(n);
+    let keep: Vec<bool> = (0..n * n).map(|i| inner[i % n] && inner[i / n]).collect();
+    a.constrain(&keep);
+    let b: Vec<f64> = (0..n * n)
+        .map(|i| if keep[i] { 1.0 + (i as f64).sin() } else { 0.0 })
+        .collect();
+    let mut exact = vec![0.0; b.len()];
+    ConjugateGradient::new(1e-13, 10_000)
+        .solve(&a, &b, &mut exact)
+        .unwrap();
+    let solver = |stencil| {
+        let settings = PmgSettings {
+            smoother: Smoother::SymmetricGaussSeidel,
+            ..PmgSettings::default()
+        };
+        PMultigrid::new(
+            Hierarchy::galerkin_2d(&space, &space, stencil).unwrap(),
+            settings,
+        )
+    };
+    let (mut full, mut native) = (
+        solver(GalerkinStencil::Exact),
+        solver(GalerkinStencil::Native),
+    );
+    let mut x = vec![0.0; b.len()];
+    let full_stats = full.solve(&a, &b, &mut x).unwrap();
+    x.fill(0.0);
+    let native_stats = native.solve(&a, &b, &mut x).unwrap();
+    assert!(relative_difference(&x, &exact) < 1e-6);
+    assert!(
+        native_stats.iterations <= full_stats.iterations + 10,
+        "{native_stats:?} vs {full_stats:?}"
+    );
+    let shift = 1.0 + super::galerkin::GALERKIN_SHIFT;
+    let widest = |m: &CsrMatrix| {
+        (0..m.rows)
+            .map(|i| m.row_start[i + 1] - m.row_start[i])
+            .max()
+            .unwrap()
+    };
+    for level in [1, 2] {
+        let e = full.hierarchy().coarse_operator(level).unwrap();
+        let m = native.hierarchy().coarse_operator(level).unwrap();
+        let reach = 3 - level;
+        assert_eq!(widest(m), (2 * reach + 1).pow(2), "level {level}");
+        assert!(widest(e) > widest(m), "level {level}");
+        if level == 2 {
+            continue; // its fine operator is level 1's, which differs
+        }
+        // Level 1 entry by entry: kept entries equal, the diagonal gains the dropped ones.
+        let mut lumped_rows = 0;
+        for i in 0..e.rows {
+            let exact_row = e.row_start[i]..e.row_start[i + 1];
+            let native_row = m.row_start[i]..m.row_start[i + 1];
+            let mut dropped = 0.0;
+            for k in exact_row {
+                let j = e.col_index[k];
+                match m.col_index[native_row.clone()].iter().position(|&c| c == j) {
+                    Some(_) => {}
+                    None => dropped += e.values[k].abs(),
+                }
+            }
+            lumped_rows += usize::from(dropped > 0.0);
+            for k in native_row {
+                let j = m.col_index[k];
+                let exact_value = (e.row_start[i]..e.row_start[i + 1])
+                    .find(|&q| e.col_index[q] == j)
+                    .map_or(0.0, |q| e.values[q]);
+                let expected = if i == j && m.values[k] != 1.0 {
+                    (exact_value / shift + dropped) * shift
+                } else {
+                    exact_value
+                };
+                assert!(
+                    (m.values[k] - expected).abs() <= 1e-13 * expected.abs().max(1e-3),
+                    "({i}, {j}): {} vs {expected}",
+                    m.values[k]
+                );
+            }
+        }
+        assert!(lumped_rows > e.rows / 2, "{lumped_rows} of {}", e.rows);
+        // N - E is positive semidefinite: x^T N x >= x^T E x for oscillating vectors.
+        for seed in 0..20 {
+            let v: Vec<f64> = (0..e.rows)
+                .map(|i| ((i * (seed + 3) * 7919) % 101) as f64 / 50.0 - 1.0)
+                .collect();
+            let (mut ev, mut mv) = (vec![0.0; e.rows], vec![0.0; e.rows]);
+            e.mul_vec(&v, &mut ev);
+            m.mul_vec(&v, &mut mv);
+            assert!(dot(&v, &mv) >= dot(&v, &ev) * (1.0 - 1e-12), "seed {seed}");
+        }
+    }
+    // As the preconditioner of CG, with the coarse Cholesky (which needs SPD levels).
+    for coarse in [
+        CoarseSolver::BandedCholesky,
+        PmgSettings::preconditioner().coarse,
+    ] {
+        let mut y = vec![0.0; b.len()];
+        let stats = PmgPreconditioner::new(
+            Hierarchy::galerkin_2d(&space, &space, GalerkinStencil::Native).unwrap(),
+            PmgSettings {
+                coarse,
+                ..PmgSettings::preconditioner()
+            },
+        )
+        .unwrap()
+        .into_cg(1e-10, 100)
+        .solve(&a, &b, &mut y)
+        .unwrap();
+        assert!(stats.iterations <= 15, "{coarse:?}: {stats:?}");
         assert!(relative_difference(&y, &exact) < 1e-8);
     }
 }
@@ -439,7 +563,7 @@ fn ilu0_smoother_is_exact_on_kronecker_matrices_and_strong_with_variable_density
             ..PmgSettings::default()
         };
         let mut x = vec![0.0; b.len()];
-        let hierarchy = Hierarchy::galerkin_2d(&space, &space).unwrap();
+        let hierarchy = Hierarchy::galerkin_2d(&space, &space, GalerkinStencil::Exact).unwrap();
         let stats = PMultigrid::new(hierarchy, settings)
             .solve(&a, &b, &mut x)
             .unwrap();
@@ -695,7 +819,7 @@ fn measure_v_cycle_counts() {
                 max_cycles: 1000,
                 ..PmgSettings::default()
             };
-            let hierarchy = Hierarchy::galerkin_2d(&space, &space).unwrap();
+            let hierarchy = Hierarchy::galerkin_2d(&space, &space, GalerkinStencil::Exact).unwrap();
             timed(&|| {
                 PMultigrid::new(hierarchy.clone(), settings).solve(&a, &b, &mut vec![0.0; b.len()])
             })
@@ -723,7 +847,7 @@ fn measure_v_cycle_counts() {
                 coarse: CoarseSolver::BandedCholesky,
                 ..PmgSettings::preconditioner()
             };
-            let hierarchy = Hierarchy::galerkin_2d(&space, &space).unwrap();
+            let hierarchy = Hierarchy::galerkin_2d(&space, &space, GalerkinStencil::Exact).unwrap();
             timed(&|| {
                 PmgPreconditioner::new(hierarchy.clone(), settings)?
                     .into_cg(1e-8, 1000)
