@@ -12,13 +12,25 @@
 //! throughput is in DOFs per second. Solver construction (transfers, Kronecker factors,
 //! symbolic analysis on the first call) happens outside the timed loop, as in a time
 //! stepper; numeric factorisations and per-solve set-up are timed.
+//!
+//! Groups `mass_solve_2d_run/p<order>_n<cells>`: the matrix of a real run, not a model
+//! problem. The 2D axis-aligned manufactured solution (4 particles per cell, TLS, consistent
+//! mass) is stepped three times; the bench solves that step's constrained velocity system
+//! of the x component (`M^C v_x = p_x`, roller walls and empty nodes eliminated, the TLS
+//! density in `M^C`) from a zero guess to the run's tolerance, with the solvers the run
+//! would build (Galerkin coarse levels for the p-multigrid kinds).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
 use std::time::Duration;
 use tlsmpm::app::solver_study::{StudyDensity, StudyProblem};
-use tlsmpm::app::solvers::build_solver;
+use tlsmpm::app::solvers::{build_solver, SolverGeometry};
+use tlsmpm::app::tensor_run::build_tensor_simulation;
 use tlsmpm::config::{SolverConfig, SolverKind};
+use tlsmpm::linalg::assembly::SplineSpace;
+use tlsmpm::linalg::CoarseOperators;
+use tlsmpm::mapping::tensor_direct::TensorBody;
+use tlsmpm::physics::tensor::TensorBodySource;
 
 fn full() -> bool {
     std::env::var_os("TLSMPM_BENCH_FULL").is_some()
@@ -82,6 +94,95 @@ fn two_dimensional(c: &mut Criterion) {
     }
 }
 
+/// The constrained velocity system of component x after three steps of the 2D
+/// manufactured solution with TLS and the consistent mass on `cells`^2 cells, B-splines of
+/// `order`; panics with the build or step error (a bench set-up, not user input).
+fn run_system(order: usize, cells: usize) -> (tlsmpm::linalg::CsrMatrix, Vec<f64>, SolverConfig) {
+    let builtin =
+        tlsmpm::app::builtin::find("axis_aligned_mms").expect("built-in axis_aligned_mms");
+    let overrides = [
+        format!("grid.cells={cells}"),
+        format!("method.order={order}"),
+        "method.reconstruction=\"tls\"".to_string(),
+        "method.mass=\"consistent\"".to_string(),
+        "solver.kind=\"cg\"".to_string(),
+        "time.dt=1.0e-7".to_string(),
+    ];
+    let scenario = tlsmpm::config::from_str(builtin.toml, "bench", &overrides)
+        .unwrap_or_else(|e| panic!("bench scenario: {e}"));
+    let (problem, mut sim) =
+        build_tensor_simulation::<2>(&scenario, false).unwrap_or_else(|e| panic!("{e}"));
+    let mut body: [Vec<f64>; 2] = std::array::from_fn(|_| vec![0.0; sim.particles.len()]);
+    problem.at_particles(&sim.particles.x0, 0.0, &mut body);
+    for step in 1..=3 {
+        let time = step as f64 * sim.dt;
+        sim.stepper
+            .step(
+                &mut sim.particles,
+                TensorBody::PerParticle(&body),
+                sim.dt,
+                step,
+                time,
+            )
+            .unwrap_or_else(|e| panic!("step {step}: {e}"));
+    }
+    let (matrix, rhs) = sim
+        .stepper
+        .velocity_system(0)
+        .expect("a consistent-mass run has a velocity system");
+    (matrix.clone(), rhs, scenario.solver.clone())
+}
+
+fn run_matrices(c: &mut Criterion) {
+    let cells = if full() { 256 } else { 64 };
+    for order in [2, 3] {
+        let (matrix, rhs, run_config) = run_system(order, cells);
+        let n = rhs.len();
+        let geometry = SolverGeometry {
+            directions: vec![SplineSpace::new(order, cells, 1.0).expect("spline space"); 2],
+            boundary_dropped: false,
+            coarse_operators: CoarseOperators::Galerkin,
+            density: None,
+        };
+        let mut group = c.benchmark_group(format!("mass_solve_2d_run/p{order}_n{cells}"));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(300))
+            .measurement_time(Duration::from_secs(2))
+            .throughput(Throughput::Elements(n as u64));
+        // `banded` is 1D-only in a run (exit 2).
+        for kind in SolverKind::ALL
+            .into_iter()
+            .filter(|&k| k != SolverKind::Banded)
+        {
+            let config = SolverConfig {
+                kind: Some(kind),
+                ..run_config.clone()
+            };
+            let Ok(mut solver) = build_solver(&config, &geometry) else {
+                continue;
+            };
+            let mut x = vec![0.0; n];
+            match solver.solve(&matrix, &rhs, &mut x) {
+                Ok(stats) => eprintln!(
+                    "mass_solve_2d_run/p{order}_n{cells}/{}: {} iterations",
+                    kind.name(),
+                    stats.iterations
+                ),
+                Err(_) => continue,
+            }
+            group.bench_function(BenchmarkId::from_parameter(kind.name()), |b| {
+                b.iter(|| {
+                    x.fill(0.0);
+                    let stats = solver.solve(&matrix, black_box(&rhs), &mut x);
+                    black_box(stats.map(|s| s.iterations).unwrap_or(usize::MAX))
+                })
+            });
+        }
+        group.finish();
+    }
+}
+
 fn one_dimensional(c: &mut Criterion) {
     let cells: &[usize] = if full() {
         &[10_000, 100_000, 1_000_000]
@@ -95,5 +196,5 @@ fn one_dimensional(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, two_dimensional, one_dimensional);
+criterion_group!(benches, two_dimensional, run_matrices, one_dimensional);
 criterion_main!(benches);

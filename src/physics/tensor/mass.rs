@@ -89,6 +89,13 @@ impl<const D: usize> TensorMassSolve<D> {
         self.name
     }
 
+    /// Component `c`'s constrained matrix of the last step and its kept DOFs (benchmarks
+    /// and diagnostics); `None` before the first step or for `c >= D`.
+    pub fn constrained_system(&self, c: usize) -> Option<(&CsrMatrix, &[bool])> {
+        let system = self.components.get(c)?;
+        Some((system.matrix.as_ref()?, &system.keep))
+    }
+
     /// The constrained systems of this step's `matrix` and masses.
     pub fn prepare(&mut self, mass: &[f64], matrix: &CsrMatrix) {
         let largest = mass.iter().copied().fold(0.0, f64::max);

@@ -12,6 +12,7 @@ use super::step::{TensorStepReport, TensorStepper};
 use super::timings::StepTimings;
 use crate::error::Result;
 use crate::grid::Basis;
+use crate::linalg::CsrMatrix;
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorBody;
 use crate::mapping::RemedyCounts;
@@ -54,6 +55,10 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
     fn solver_totals(&self) -> SolverTotals;
     /// Seconds per phase of the steps so far.
     fn timings(&self) -> StepTimings;
+    /// The velocity system `M^C v_c = p_c` of component `c` at the last step: the
+    /// constrained consistent mass and the grid momentum (0 on eliminated DOFs). `None`
+    /// with a lumped mass, before the first step or for `c >= D`.
+    fn velocity_system(&self, c: usize) -> Option<(&CsrMatrix, Vec<f64>)>;
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
@@ -100,6 +105,17 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
     }
     fn timings(&self) -> StepTimings {
         TensorStepper::timings(self)
+    }
+    fn velocity_system(&self, c: usize) -> Option<(&CsrMatrix, Vec<f64>)> {
+        let (matrix, keep) = self.mass_solve.as_ref()?.constrained_system(c)?;
+        let momentum = self
+            .fields
+            .momentum
+            .iter()
+            .zip(keep)
+            .map(|(p, &k)| if k { p[c] } else { 0.0 })
+            .collect();
+        Some((matrix, momentum))
     }
 }
 
