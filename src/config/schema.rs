@@ -679,14 +679,9 @@ fn serialize_kind<S: serde::Serializer>(
 }
 
 /// The solver of 2D / 3D consistent-mass runs when `solver.kind` is not given: the
-/// fastest measured inside a run (`docs/tls.md`): `kron` in 2D, `direct` in 3D (where
-/// `kron` and p-multigrid are not available).
-pub fn tensor_default_solver(dim: usize) -> SolverKind {
-    if dim == 2 {
-        SolverKind::Kron
-    } else {
-        SolverKind::Direct
-    }
+/// fastest measured inside a run (`docs/tls.md`), `kron` in 2D and in 3D.
+pub fn tensor_default_solver(_dim: usize) -> SolverKind {
+    SolverKind::Kron
 }
 
 impl SolverConfig {

@@ -244,13 +244,11 @@ impl Scenario {
             Some(SolverKind::Banded) => {
                 return one_d_only("solver.kind", "\"banded\"", "the banded Cholesky")
             }
-            Some(kind @ (SolverKind::Kron | SolverKind::Pmg | SolverKind::PmgCg))
-                if self.problem.dim == 3 =>
-            {
+            Some(kind @ (SolverKind::Pmg | SolverKind::PmgCg)) if self.problem.dim == 3 => {
                 return Err(Error::invalid(
                     "solver.kind",
                     format!("\"{}\"", kind.name()),
-                    "is available in 1D and 2D (use cg, pcg or direct in 3D)",
+                    "is available in 1D and 2D (use kron, cg, pcg or direct in 3D)",
                 ))
             }
             _ => {}
