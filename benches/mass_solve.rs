@@ -28,7 +28,7 @@ use tlsmpm::app::solvers::{build_solver, SolverGeometry};
 use tlsmpm::app::tensor_run::build_tensor_simulation;
 use tlsmpm::config::{SolverConfig, SolverKind};
 use tlsmpm::linalg::assembly::SplineSpace;
-use tlsmpm::linalg::CoarseOperators;
+use tlsmpm::linalg::{CoarseOperators, CsrMatrix};
 use tlsmpm::mapping::tensor_direct::TensorBody;
 use tlsmpm::physics::tensor::TensorBodySource;
 
@@ -40,40 +40,64 @@ fn group(c: &mut Criterion, dim: usize, order: usize, cells: usize, density: Stu
     let Ok(problem) = StudyProblem::new(dim, order, cells, density) else {
         return;
     };
-    let n = problem.rhs.len();
     let suffix = if density == StudyDensity::Sine {
         "_sine"
     } else {
         ""
     };
-    let mut group = c.benchmark_group(format!("mass_solve_{dim}d{suffix}/p{order}_n{cells}"));
+    // The 2D band is p (n + p) wide: a banded factorisation is O(N n^2 p^2).
+    let kinds = SolverKind::ALL
+        .into_iter()
+        .filter(|&k| dim == 1 || k != SolverKind::Banded);
+    let base = SolverConfig {
+        smoother: tlsmpm::config::Smoother::SymmetricGaussSeidel,
+        ..SolverConfig::default()
+    };
+    solver_group(
+        c,
+        &format!("mass_solve_{dim}d{suffix}/p{order}_n{cells}"),
+        (&problem.matrix, &problem.rhs),
+        &problem.geometry,
+        &base,
+        kinds,
+    );
+}
+
+/// One group `name`: every solver of `kinds` (configured as `base`) on `matrix x = rhs`
+/// from a zero guess. Solvers that cannot be built or fail the set-up solve (e.g. pmg with
+/// a weak smoother at high order) are skipped; the set-up solve's iterations go to stderr.
+fn solver_group(
+    c: &mut Criterion,
+    name: &str,
+    (matrix, rhs): (&CsrMatrix, &[f64]),
+    geometry: &SolverGeometry,
+    base: &SolverConfig,
+    kinds: impl Iterator<Item = SolverKind>,
+) {
+    let n = rhs.len();
+    let mut group = c.benchmark_group(name);
     group
         .sample_size(10)
         .warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(2))
         .throughput(Throughput::Elements(n as u64));
-    for kind in SolverKind::ALL {
-        // The 2D band is p (n + p) wide: a banded factorisation is O(N n^2 p^2).
-        if dim == 2 && kind == SolverKind::Banded {
-            continue;
-        }
+    for kind in kinds {
         let config = SolverConfig {
             kind: Some(kind),
-            smoother: tlsmpm::config::Smoother::SymmetricGaussSeidel,
-            ..SolverConfig::default()
+            ..base.clone()
         };
-        let Ok(mut solver) = build_solver(&config, &problem.geometry) else {
+        let Ok(mut solver) = build_solver(&config, geometry) else {
             continue;
         };
         let mut x = vec![0.0; n];
-        // Skip solvers that fail here (e.g. pmg with a weak smoother at high order).
-        if solver.solve(&problem.matrix, &problem.rhs, &mut x).is_err() {
-            continue;
+        match solver.solve(matrix, rhs, &mut x) {
+            Ok(stats) => eprintln!("{name}/{}: {} iterations", kind.name(), stats.iterations),
+            Err(_) => continue,
         }
         group.bench_function(BenchmarkId::from_parameter(kind.name()), |b| {
             b.iter(|| {
                 x.fill(0.0);
-                let stats = solver.solve(&problem.matrix, black_box(&problem.rhs), &mut x);
+                let stats = solver.solve(matrix, black_box(rhs), &mut x);
                 black_box(stats.map(|s| s.iterations).unwrap_or(usize::MAX))
             })
         });
@@ -97,7 +121,7 @@ fn two_dimensional(c: &mut Criterion) {
 /// The constrained velocity system of component x after three steps of the 2D
 /// manufactured solution with TLS and the consistent mass on `cells`^2 cells, B-splines of
 /// `order`; panics with the build or step error (a bench set-up, not user input).
-fn run_system(order: usize, cells: usize) -> (tlsmpm::linalg::CsrMatrix, Vec<f64>, SolverConfig) {
+fn run_system(order: usize, cells: usize) -> (CsrMatrix, Vec<f64>, SolverConfig) {
     let builtin =
         tlsmpm::app::builtin::find("axis_aligned_mms").expect("built-in axis_aligned_mms");
     let overrides = [
@@ -137,49 +161,23 @@ fn run_matrices(c: &mut Criterion) {
     let cells = if full() { 256 } else { 64 };
     for order in [2, 3] {
         let (matrix, rhs, run_config) = run_system(order, cells);
-        let n = rhs.len();
         let geometry = SolverGeometry {
             directions: vec![SplineSpace::new(order, cells, 1.0).expect("spline space"); 2],
             boundary_dropped: false,
             coarse_operators: CoarseOperators::Galerkin,
             density: None,
         };
-        let mut group = c.benchmark_group(format!("mass_solve_2d_run/p{order}_n{cells}"));
-        group
-            .sample_size(10)
-            .warm_up_time(Duration::from_millis(300))
-            .measurement_time(Duration::from_secs(2))
-            .throughput(Throughput::Elements(n as u64));
         // `banded` is 1D-only in a run (exit 2).
-        for kind in SolverKind::ALL
-            .into_iter()
-            .filter(|&k| k != SolverKind::Banded)
-        {
-            let config = SolverConfig {
-                kind: Some(kind),
-                ..run_config.clone()
-            };
-            let Ok(mut solver) = build_solver(&config, &geometry) else {
-                continue;
-            };
-            let mut x = vec![0.0; n];
-            match solver.solve(&matrix, &rhs, &mut x) {
-                Ok(stats) => eprintln!(
-                    "mass_solve_2d_run/p{order}_n{cells}/{}: {} iterations",
-                    kind.name(),
-                    stats.iterations
-                ),
-                Err(_) => continue,
-            }
-            group.bench_function(BenchmarkId::from_parameter(kind.name()), |b| {
-                b.iter(|| {
-                    x.fill(0.0);
-                    let stats = solver.solve(&matrix, black_box(&rhs), &mut x);
-                    black_box(stats.map(|s| s.iterations).unwrap_or(usize::MAX))
-                })
-            });
-        }
-        group.finish();
+        solver_group(
+            c,
+            &format!("mass_solve_2d_run/p{order}_n{cells}"),
+            (&matrix, &rhs),
+            &geometry,
+            &run_config,
+            SolverKind::ALL
+                .into_iter()
+                .filter(|&k| k != SolverKind::Banded),
+        );
     }
 }
 
