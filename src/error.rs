@@ -5,7 +5,10 @@
 //!   step) → exit code 2, with a message that names the offending key and value;
 //! * numerical failures (NaN/infinity, solver breakdown or divergence) → exit code 1, after
 //!   the caller has written what was computed so far;
-//! * output errors (cannot write a result file) → exit code 1.
+//! * output errors (the output directory cannot be created or written) → exit code 2, with
+//!   the path;
+//! * an interrupt (SIGINT / SIGTERM, checked between steps) → exit code 130, after the
+//!   state reached has been written with status `"interrupted"`.
 
 use std::path::PathBuf;
 
@@ -69,6 +72,9 @@ pub enum Error {
     /// A result file could not be written.
     #[error("cannot write {path}: {reason}")]
     WriteOutput { path: PathBuf, reason: String },
+    /// The run was asked to stop (SIGINT / SIGTERM) and stopped after `step` steps.
+    #[error("interrupted after step {step} (t = {time:e} s)")]
+    Interrupted { step: usize, time: f64 },
 }
 
 impl Error {
@@ -81,8 +87,8 @@ impl Error {
         }
     }
 
-    /// `true` for errors caused by the user's input (exit code 2), `false` for numerical
-    /// or output failures (exit code 1).
+    /// `true` for errors caused by the user's input, before anything was computed (exit
+    /// code 2); `false` for numerical failures, output failures and interrupts.
     pub fn is_input_error(&self) -> bool {
         matches!(
             self,
@@ -94,12 +100,28 @@ impl Error {
         )
     }
 
-    /// Process exit code for this error (DESIGN §2).
+    /// Process exit code for this error: 2 for bad input and unusable output paths, 130
+    /// for an interrupt, 1 for a numerical failure.
+    ///
+    /// ```
+    /// use tlsmpm::Error;
+    /// assert_eq!(Error::invalid("grid.cells", 0, "must be positive").exit_code(), 2);
+    /// assert_eq!(Error::Interrupted { step: 3, time: 0.1 }.exit_code(), 130);
+    /// ```
     pub fn exit_code(&self) -> i32 {
-        if self.is_input_error() {
-            2
-        } else {
-            1
+        match self {
+            _ if self.is_input_error() => 2,
+            Error::WriteOutput { .. } => 2,
+            Error::Interrupted { .. } => 130,
+            _ => 1,
+        }
+    }
+
+    /// The run status this error leaves in `summary.json`: `"interrupted"` or `"failed"`.
+    pub fn run_status(&self) -> &'static str {
+        match self {
+            Error::Interrupted { .. } => "interrupted",
+            _ => "failed",
         }
     }
 

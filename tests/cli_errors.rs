@@ -321,13 +321,13 @@ fn non_finite_stress_fails_with_partial_output() {
 }
 
 #[test]
-fn unwritable_output_directory_is_exit_code_1() {
+fn unwritable_output_directory_is_bad_input_naming_the_path() {
     let dir = tempdir();
     let file = dir.path().join("file");
     std::fs::write(&file, "not a directory").expect("write file");
     let out: PathBuf = file.join("out");
     let o = run(BAR, &out, &[TINY], &[]);
-    assert_eq!(o.code, 1, "stderr: {}", o.stderr);
+    assert_eq!(o.code, 2, "stderr: {}", o.stderr);
     assert_names(
         error_line(&o),
         &["cannot write", &out.display().to_string()],
@@ -336,9 +336,129 @@ fn unwritable_output_directory_is_exit_code_1() {
 
 // ---- 7. bad flags ---------------------------------------------------------------------
 
+/// Clap's own errors are several lines; they must still be exit 2, name the flag and the
+/// value, and carry no misleading tip.
+fn expect_flag_error(flags: &[&str], needles: &[&str]) {
+    let dir = tempdir();
+    let o = run(BAR, &dir.path().join("out"), &[TINY], flags);
+    assert_eq!(o.code, 2, "{flags:?}: stderr: {}", o.stderr);
+    assert!(
+        !o.stderr.contains("panicked") && !o.stderr.contains("tip:"),
+        "{}",
+        o.stderr
+    );
+    assert_names(&o.stderr, needles);
+}
+
 #[test]
-fn zero_threads_is_bad_input() {
-    expect_input_error(BAR, &[TINY], &["--threads", "0"], &["--threads", "0"]);
+fn zero_negative_or_machine_filling_thread_counts_are_bad_input() {
+    // Thousands of threads would hang the machine building the pool: refused at once.
+    expect_flag_error(
+        &["--threads", "100000"],
+        &["--threads", "100000", "per core"],
+    );
+    expect_flag_error(&["--threads", "-1"], &["--threads", "-1", "whole number"]);
+    expect_flag_error(&["--threads", "0"], &["--threads", "0", "at least 1"]);
+}
+
+#[test]
+fn too_many_particles_blames_the_key_that_is_out_of_scale() {
+    let huge = "1000000000000";
+    let per_cell = format!("particles.per_cell={huge}");
+    expect_input_error(BAR, &[&per_cell], &[], &["particles.per_cell", huge]);
+    let cells = format!("grid.cells={huge}");
+    expect_input_error(BAR, &[&cells], &[], &["grid.cells", huge]);
+    let per_cell_2d = format!("particles.per_cell={}", 1_u64 << 40);
+    expect_input_error(
+        "axis_aligned_mms",
+        &[&per_cell_2d],
+        &[],
+        &["particles.per_cell"],
+    );
+}
+
+#[test]
+fn a_run_larger_than_the_free_memory_is_refused_with_the_estimate() {
+    // 120 000 particles against 16 MiB of memory (the variable stands for a batch job's
+    // limit): refused before anything is allocated, naming both keys and the estimate.
+    let dir = tempdir();
+    let out = dir.path().join("out");
+    let output = Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
+        .args(["run", BAR, "--quiet", "--set", "grid.cells=10000", "--out"])
+        .arg(&out)
+        .env("TLSMPM_AVAILABLE_MEMORY", (16_u64 << 20).to_string())
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("start tlsmpm");
+    let o = Outcome {
+        code: output.status.code().expect("exit code"),
+        stdout: String::new(),
+        stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+    };
+    assert_eq!(o.code, 2, "stderr: {}", o.stderr);
+    assert_names(
+        error_line(&o),
+        &[
+            "grid.cells",
+            "particles.per_cell",
+            "120000",
+            "GiB",
+            "available",
+        ],
+    );
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn an_unknown_scenario_name_lists_the_builtins() {
+    let dir = tempdir();
+    let o = run("vibrating_barr", &dir.path().join("out"), &[], &[]);
+    assert_eq!(o.code, 2, "stderr: {}", o.stderr);
+    assert_names(
+        error_line(&o),
+        &[
+            "vibrating_barr",
+            "vibrating_bar_large",
+            "column_compaction",
+            "tlsmpm list",
+        ],
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_pipe_ends_quietly() {
+    // `tlsmpm list | head -0`: the reader is gone before tlsmpm writes.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
+        .arg("list")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start tlsmpm");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("wait");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.is_empty(), "stderr: {stderr}");
+    assert_ne!(output.status.code(), Some(101), "a panic");
+}
+
+#[test]
+fn messages_write_values_as_the_scenario_file_does() {
+    // `"linear"` as in the file, not the Rust variant name `Linear`.
+    let dir = tempdir();
+    let o = run(
+        CONSOLIDATION,
+        &dir.path().join("out"),
+        &["material.model=\"linear\""],
+        &[],
+    );
+    assert_eq!(o.code, 2, "stderr: {}", o.stderr);
+    let line = error_line(&o);
+    assert!(
+        line.contains("material.model") && line.contains("\"linear\""),
+        "{line}"
+    );
+    assert!(!line.contains("Linear"), "{line}");
 }
 
 #[test]
@@ -579,6 +699,33 @@ fn expect_success(scenario: &str, sets: &[&str]) {
     )
     .expect("summary.json is JSON");
     assert_eq!(summary["status"], "completed", "{summary}");
+    assert_eq!(summary["warnings"], serde_json::json!([]), "{summary}");
+}
+
+#[test]
+fn a_run_with_errors_above_100_percent_warns_on_stderr_and_in_the_summary() {
+    // Plain MPM on the manufactured-solution bar: relative errors of about 60 (u) and 270
+    // (stress) and a growing energy.
+    let dir = tempdir();
+    let out = dir.path().join("out");
+    let o = run(
+        "mms_bar",
+        &out,
+        &["method.basis=linear", "method.reconstruction=none"],
+        &[],
+    );
+    assert_eq!(o.code, 0, "stderr: {}", o.stderr);
+    assert!(
+        o.stderr.contains("warning: the relative L2 error of"),
+        "{}",
+        o.stderr
+    );
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("summary.json")).expect("summary.json"),
+    )
+    .expect("JSON");
+    let warnings = summary["warnings"].as_array().expect("warnings");
+    assert!(!warnings.is_empty(), "{summary}");
 }
 
 #[test]

@@ -203,6 +203,7 @@ fn two_phase_outputs_carry_the_liquid_columns() {
         out_dir: dir.path().to_path_buf(),
         threads: Some(1),
         force: false,
+        stop: None,
     };
     let summary = tlsmpm::app::run(&s, "consolidation", &options, &mut |_, _| {}).expect("run");
     let errors = summary.errors.expect("errors against Terzaghi");

@@ -167,6 +167,7 @@ fn a_run_writes_vtu_snapshots_that_read_back_and_a_pvd_listing_them() {
         out_dir: dir.path().to_path_buf(),
         threads: Some(2),
         force: false,
+        stop: None,
     };
     let summary = tlsmpm::app::run(&s, "vtk", &options, &mut |_, _| {}).expect("run");
     let pvd = std::fs::read_to_string(dir.path().join("particles.pvd")).expect("pvd");

@@ -14,6 +14,7 @@ fn run_writes_the_stable_files_and_evenly_spread_snapshots() {
         out_dir: dir.path().to_path_buf(),
         threads: Some(1),
         force: false,
+        stop: None,
     };
     let mut calls = 0;
     let summary = app::run(&s, "bar", &options, &mut |_, _| calls += 1).expect("run");

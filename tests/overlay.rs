@@ -23,6 +23,7 @@ fn run(prefix: &str, overrides: &[&str]) -> tempfile::TempDir {
         out_dir: dir.path().to_path_buf(),
         threads: Some(1),
         force: false,
+        stop: None,
     };
     app::run(&s, "bar", &options, &mut |_, _| {}).expect("run");
     dir

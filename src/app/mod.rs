@@ -6,6 +6,7 @@
 
 pub mod build;
 pub mod builtin;
+pub mod memory;
 pub mod overlay;
 pub mod reconstruct;
 pub mod run;
@@ -13,6 +14,7 @@ pub mod solver_study;
 pub mod solvers;
 pub mod study;
 pub mod tensor_run;
+pub mod warnings;
 
 pub use build::build_simulation;
 pub use overlay::{overlay, OverlayOptions};

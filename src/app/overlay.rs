@@ -220,26 +220,25 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
         }
         data.push((label, x, y));
     }
-    let mut series: Vec<Series> = data
-        .iter()
-        .map(|(label, x, y)| Series {
-            label,
-            x,
-            y,
-            style: match options.axis {
-                Axis::MeshSize => Style::LinePoints,
-                _ => Style::Points,
-            },
-        })
-        .collect();
+    // The exact solution first (thin, drawn under the runs), then the runs in order.
+    let mut series: Vec<Series> = Vec::new();
     if let Some((x, y)) = &exact {
         series.push(Series {
             label: "exact",
             x,
             y,
-            style: Style::Line,
+            style: Style::Reference,
         });
     }
+    series.extend(data.iter().map(|(label, x, y)| Series {
+        label,
+        x,
+        y,
+        style: match options.axis {
+            Axis::MeshSize => Style::LinePoints,
+            _ => Style::Points,
+        },
+    }));
     let path = options
         .out
         .clone()

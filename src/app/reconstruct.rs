@@ -289,7 +289,7 @@ pub fn reconstruct(out_dir: Option<&Path>) -> Result<ReconstructionReport> {
         profile_plot(
             &dir.join("reconstruction.svg"),
             &Axes {
-                title: "Reconstruction of sin x + 2 on 4 cells (SPEC 6.1)",
+                title: "Reconstruction of sin x + 2 on 4 cells",
                 x_label: "x",
                 y_label: "f(x)",
             },
@@ -298,7 +298,7 @@ pub fn reconstruct(out_dir: Option<&Path>) -> Result<ReconstructionReport> {
                     label: "exact",
                     x: &x,
                     y: exact_y,
-                    style: Style::Line,
+                    style: Style::Reference,
                 },
                 Series {
                     label: "TLS",
@@ -313,13 +313,13 @@ pub fn reconstruct(out_dir: Option<&Path>) -> Result<ReconstructionReport> {
                     style: Style::Line,
                 },
                 Series {
-                    label: "TLS, degenerate cell 2 (order reduced)",
+                    label: "TLS, cell 2 order-reduced",
                     x: &x,
                     y: degenerate_y,
                     style: Style::Line,
                 },
                 Series {
-                    label: "TLS, degenerate cell 2 + virtual point",
+                    label: "TLS, cell 2 + virtual point",
                     x: &x,
                     y: virtual_y,
                     style: Style::Line,

@@ -3,31 +3,47 @@
 //! written before the error is returned: `summary.json` (status `"failed"`, the message
 //! and `failed_step`), the history of the completed steps, and `particles.csv` with the
 //! particle state at the moment of failure (partly updated by the failing step, so the
-//! non-finite values or the escaping particle can be located).
+//! non-finite values or the escaping particle can be located). A run asked to stop
+//! ([`RunOptions::stop`]) ends after the current step and writes the same files with status
+//! `"interrupted"`.
 
 use crate::app::build_simulation;
 use crate::config::{Scenario, VelocityReference};
 use crate::error::{Error, Result};
 use crate::numerics::norms::{relative_l2, rms};
 use crate::output::csv::{write_history, write_particles, ExactColumn};
-use crate::output::plot::{profile_plot, Axes, Series, Style};
+use crate::output::plot::{profile_plot, semilogy_plot, Axes, Series, Style};
 use crate::output::summary::{Conservation, Errors, SolverSummary};
 use crate::output::Summary;
 use crate::particles::Particles;
 use crate::physics::Simulation;
 use crate::problems::{Field, PlotAxis, Problem, ProblemBody};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// How to run.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct RunOptions {
-    /// Output directory (created if missing).
+    /// Output directory (created if missing; the files of this run are written into it).
     pub out_dir: PathBuf,
     /// Worker threads (`None`: rayon's default, one per core).
     pub threads: Option<usize>,
     /// Run even if the time step is above the stability limit.
     pub force: bool,
+    /// Checked after every step: once it is `true` the run stops with
+    /// [`Error::Interrupted`], after writing the state reached (status `"interrupted"`).
+    pub stop: Option<&'static AtomicBool>,
+}
+
+impl RunOptions {
+    /// `Err(Error::Interrupted)` once [`RunOptions::stop`] is set.
+    pub(crate) fn check_stop(&self, step: usize, time: f64) -> Result<()> {
+        match self.stop {
+            Some(stop) if stop.load(Ordering::Relaxed) => Err(Error::Interrupted { step, time }),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// Run `scenario` (named `name` in the summary), writing all outputs into
@@ -38,6 +54,10 @@ pub fn run(
     options: &RunOptions,
     progress: &mut (dyn FnMut(usize, usize) + Send),
 ) -> Result<Summary> {
+    // The ranges first (a particle count that overflows is an input error of its own),
+    // then whether the run fits in memory, before anything is allocated.
+    scenario.validate()?;
+    crate::app::memory::check_scenario_fits(scenario)?;
     if scenario.problem.dim != 1 {
         return crate::app::tensor_run::run_tensor(scenario, name, options, progress);
     }
@@ -77,7 +97,7 @@ pub fn run(
                         snapshot_error = Some(e);
                     }
                 }
-                Ok(())
+                options.check_stop(sim.steps_done, sim.time())
             },
         )
     });
@@ -211,16 +231,14 @@ fn write_outputs(
         errors
     });
     let (basis, reconstruction) = simulation.stepper.method_names();
+    let warnings = crate::app::warnings::run_warnings(errors.as_ref(), &simulation.history);
     let summary = Summary {
         scenario: name.to_string(),
-        status: if failure.is_some() {
-            "failed"
-        } else {
-            "completed"
-        }
-        .into(),
+        status: failure.map_or("completed", Error::run_status).into(),
         failure: failure.map(|e| e.to_string()),
-        failed_step: failure.map(|_| simulation.steps_done + 1),
+        failed_step: failure
+            .filter(|e| !matches!(e, Error::Interrupted { .. }))
+            .map(|_| simulation.steps_done + 1),
         problem: problem.name().into(),
         dim: None,
         basis: basis.into(),
@@ -249,6 +267,7 @@ fn write_outputs(
         },
         timings: None,
         reconstruction_remedies: simulation.stepper.remedies(),
+        warnings,
         config: scenario.clone(),
     };
     write_particles(
@@ -278,6 +297,7 @@ fn write_outputs(
         for &(field, file, y_label) in profiles {
             profile_of(
                 &out_dir.join(file),
+                name,
                 field,
                 y_label,
                 problem,
@@ -286,7 +306,13 @@ fn write_outputs(
             )?;
         }
         if !columns.is_empty() {
-            error_plot(&out_dir.join("errors.svg"), problem, simulation, &columns)?;
+            error_plot(
+                &out_dir.join("errors.svg"),
+                name,
+                problem,
+                simulation,
+                &columns,
+            )?;
         }
     }
     summary.write(&out_dir.join("summary.json"))?;
@@ -309,6 +335,7 @@ fn plot_positions(problem: &dyn Problem, p: &Particles) -> (Vec<usize>, Vec<f64>
 /// plot axis; shows where the error lives (e.g. the boundary spans of lumped BSMPM).
 fn error_plot(
     path: &Path,
+    name: &str,
     problem: &dyn Problem,
     simulation: &Simulation,
     columns: &[(Field, Vec<f64>)],
@@ -328,22 +355,23 @@ fn error_plot(
             (field.name().to_string(), values)
         })
         .collect();
+    // Points, not lines: neighbouring particles' errors are not a curve (they alternate
+    // in sign and size), and on the log axis 1e-3 and 1e-10 are both readable.
     let series: Vec<Series> = errors
         .iter()
         .map(|(label, values)| Series {
             label,
             x: &xs,
             y: values,
-            style: Style::LinePoints,
+            style: Style::Points,
         })
         .collect();
     let (basis, reconstruction) = simulation.stepper.method_names();
     let title = format!(
-        "{} ({basis} / {reconstruction}): |error| / max |exact| at t = {:.4e} s",
-        problem.name(),
+        "{name} ({basis} / {reconstruction}): |error| / max |exact| at t = {:.4e} s",
         simulation.time()
     );
-    profile_plot(
+    semilogy_plot(
         path,
         &Axes {
             title: &title,
@@ -356,8 +384,10 @@ fn error_plot(
 
 /// Profile of `field`: particles (points) against the exact / reference values (line),
 /// over the current or initial position as the problem prefers.
+#[allow(clippy::too_many_arguments)]
 fn profile_of(
     path: &Path,
+    name: &str,
     field: Field,
     y_label: &str,
     problem: &dyn Problem,
@@ -374,23 +404,24 @@ fn profile_of(
         .map(|(_, values)| order.iter().map(|&k| values[k]).collect());
     let (basis, reconstruction) = simulation.stepper.method_names();
     let label = format!("{basis} / {reconstruction}");
-    let mut series = vec![Series {
-        label: &label,
-        x: &xs,
-        y: &values,
-        style: Style::Points,
-    }];
+    // The reference first, so that the particles are drawn over it.
+    let mut series = Vec::new();
     if let Some(exact) = &exact {
         series.push(Series {
             label: problem.reference_label(),
             x: &xs,
             y: exact,
-            style: Style::Line,
+            style: Style::Reference,
         });
     }
+    series.push(Series {
+        label: &label,
+        x: &xs,
+        y: &values,
+        style: Style::Points,
+    });
     let title = format!(
-        "{}: {} at t = {:.4e} s",
-        problem.name(),
+        "{name}: {} at t = {:.4e} s",
         field.name().replace('_', " "),
         simulation.time()
     );

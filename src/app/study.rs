@@ -6,7 +6,7 @@ use crate::app::{run, RunOptions};
 use crate::config::Scenario;
 use crate::error::{Error, Result};
 use crate::numerics::norms::observed_order;
-use crate::output::plot::{loglog_plot, Axes, Series, Style};
+use crate::output::plot::{loglog_plot_ticked, Axes, Series, Style};
 use crate::output::write_atomic;
 use crate::problems::Field;
 use std::fmt::Write as _;
@@ -181,7 +181,7 @@ fn convergence_plot(path: &Path, name: &str, rows: &[StudyRow]) -> Result<()> {
             )
         })
         .collect();
-    let series: Vec<Series> = data
+    let mut series: Vec<Series> = data
         .iter()
         .map(|(label, y)| Series {
             label,
@@ -190,8 +190,15 @@ fn convergence_plot(path: &Path, name: &str, rows: &[StudyRow]) -> Result<()> {
             style: Style::LinePoints,
         })
         .collect();
+    let guides = slope_guides(&h, &data);
+    series.extend(guides.iter().map(|(label, x, y)| Series {
+        label,
+        x,
+        y,
+        style: Style::Guide,
+    }));
     let title = format!("{name}: convergence");
-    loglog_plot(
+    loglog_plot_ticked(
         path,
         &Axes {
             title: &title,
@@ -199,5 +206,32 @@ fn convergence_plot(path: &Path, name: &str, rows: &[StudyRow]) -> Result<()> {
             y_label: "RMS error",
         },
         &series,
+        &h,
     )
+}
+
+/// Slope guides `e = C h^s`, `s = 1, 2, 3`, over the range of `h`: they start at the
+/// coarsest `h`, half a decade below the smallest error there, and are labelled at the
+/// finest `h`. None with fewer than two cell sizes or no positive error.
+fn slope_guides(h: &[f64], data: &[(String, Vec<f64>)]) -> Vec<(String, Vec<f64>, Vec<f64>)> {
+    let positive = |v: &f64| v.is_finite() && *v > 0.0;
+    let h_max = h.iter().copied().filter(positive).fold(f64::NAN, f64::max);
+    let h_min = h.iter().copied().filter(positive).fold(f64::NAN, f64::min);
+    let Some(coarsest) = h.iter().position(|&v| v == h_max) else {
+        return Vec::new();
+    };
+    let anchor = data
+        .iter()
+        .filter_map(|(_, e)| e.get(coarsest).copied().filter(positive))
+        .fold(f64::NAN, f64::min);
+    if h_min.is_nan() || h_min >= h_max || !positive(&anchor) {
+        return Vec::new();
+    }
+    let start = anchor / 10f64.sqrt();
+    (1..=3)
+        .map(|s| {
+            let end = start * (h_min / h_max).powi(s);
+            (format!("slope {s}"), vec![h_max, h_min], vec![start, end])
+        })
+        .collect()
 }

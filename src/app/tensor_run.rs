@@ -113,7 +113,7 @@ pub fn build_tensor_simulation<const D: usize>(
         other => {
             return Err(Error::invalid(
                 "method.basis",
-                format!("{other:?}").to_lowercase(),
+                crate::config::toml_value(&other),
                 "is 1D only",
             ))
         }
@@ -345,6 +345,7 @@ fn run_dim<const D: usize>(
                     snapshot_error = Some(e);
                 }
             }
+            options.check_stop(sim.steps_done, sim.time)?;
             Ok(true)
         })
     });
@@ -494,16 +495,14 @@ fn write_outputs<const D: usize>(
         }
         errors
     });
+    let warnings = crate::app::warnings::run_warnings(errors.as_ref(), &simulation.history);
     let summary = Summary {
         scenario: name.to_string(),
-        status: if failure.is_some() {
-            "failed"
-        } else {
-            "completed"
-        }
-        .into(),
+        status: failure.map_or("completed", Error::run_status).into(),
         failure: failure.map(|e| e.to_string()),
-        failed_step: failure.map(|_| simulation.steps_done + 1),
+        failed_step: failure
+            .filter(|e| !matches!(e, Error::Interrupted { .. }))
+            .map(|_| simulation.steps_done + 1),
         problem: problem.name().into(),
         dim: Some(D),
         basis: simulation.stepper.basis_name().into(),
@@ -532,6 +531,7 @@ fn write_outputs<const D: usize>(
         },
         timings: Some(simulation.stepper.timings()),
         reconstruction_remedies: simulation.stepper.remedies(),
+        warnings,
         config: scenario.clone(),
     };
     write_tensor_particles(&out.join("particles.csv"), p, &as_refs(&columns))?;

@@ -1,6 +1,9 @@
-//! `tlsmpm`: the command line (DESIGN §2). A thin layer over the library: argument parsing,
-//! scenario loading, the progress bar, and the mapping of errors to exit codes
-//! (0 success, 2 bad input, 1 numerical failure after the partial output is written).
+//! `tlsmpm`: the command line. A thin layer over the library: argument parsing, scenario
+//! loading, the output directory of a run (staged and renamed into place, see
+//! [`tlsmpm::output::run_dir`]), SIGINT / SIGTERM, the progress display, and the mapping of
+//! errors to exit codes (0 success; 2 bad input or an unusable output path; 1 numerical
+//! failure, after the partial output is written; 130 interrupted, after the state reached
+//! is written).
 
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -12,6 +15,44 @@ use tlsmpm::app::overlay::{Axis, OverlayOptions};
 use tlsmpm::app::solver_study::{SolverStudyOptions, StudyDensity};
 use tlsmpm::app::{self, builtin, RunOptions};
 use tlsmpm::config::{self, Scenario, Smoother, SolverConfig, SolverKind};
+use tlsmpm::output::run_dir::StagedDir;
+
+/// SIGINT / SIGTERM: the first asks the run to stop after the current step (it writes the
+/// state reached, status `"interrupted"`, exit 130); a second one aborts at once.
+mod interrupt {
+    use std::sync::atomic::AtomicBool;
+
+    /// Set by the first signal; runs poll it between steps.
+    pub static STOP: AtomicBool = AtomicBool::new(false);
+
+    #[cfg(unix)]
+    extern "C" fn on_signal(_: libc::c_int) {
+        // Async-signal-safe: one lock-free atomic and `_exit`.
+        if STOP.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            // SAFETY: `_exit` is async-signal-safe and does not return.
+            unsafe { libc::_exit(130) };
+        }
+    }
+
+    /// Install the handlers, and restore the default SIGPIPE so that `tlsmpm ... | head`
+    /// ends quietly instead of panicking on a closed pipe.
+    pub fn install() {
+        #[cfg(unix)]
+        // SAFETY: the handler only touches an atomic and calls `_exit`; SIG_DFL for
+        // SIGPIPE is the C default that Rust's runtime replaced.
+        unsafe {
+            let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+            libc::signal(libc::SIGINT, handler);
+            libc::signal(libc::SIGTERM, handler);
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
+    }
+
+    /// Whether a stop was asked for.
+    pub fn requested() -> bool {
+        STOP.load(std::sync::atomic::Ordering::SeqCst)
+    }
+}
 
 #[derive(Parser)]
 #[command(
@@ -124,15 +165,30 @@ struct Common {
     /// Override a scenario key, e.g. --set grid.cells=40 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Worker threads [default: one per core].
-    #[arg(long)]
+    /// Worker threads [default: one per core; at most 16 per core].
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: Option<usize>,
-    /// No progress bar.
+    /// No progress display and no summary on stdout (errors are still printed).
     #[arg(long)]
     quiet: bool,
-    /// Run even if the time step exceeds the stability limit.
+    /// Replace an existing output directory whole, and run even if the time step exceeds
+    /// the stability limit.
     #[arg(long)]
     force: bool,
+}
+
+/// `--threads`: a whole number from 1 to 16 per core.
+fn parse_threads(text: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let limit = 16 * cores;
+    match text.parse::<usize>() {
+        Ok(0) => Err("must be at least 1".into()),
+        Ok(n) if n > limit => Err(format!(
+            "{n} threads is more than 16 per core ({limit} on this machine with {cores} cores)"
+        )),
+        Ok(n) => Ok(n),
+        Err(_) => Err("expected a whole number of worker threads, at least 1".into()),
+    }
 }
 
 impl Common {
@@ -144,6 +200,18 @@ impl Common {
                 return Ok((
                     config::from_str(b.toml, b.name, &self.set)?,
                     b.name.to_string(),
+                ));
+            }
+            // A bare word is meant as a built-in name: say which ones exist.
+            if path.extension().is_none() && path.components().count() == 1 {
+                let names: Vec<&str> = builtin::BUILTIN.iter().map(|b| b.name).collect();
+                return Err(tlsmpm::Error::invalid(
+                    "SCENARIO",
+                    &self.scenario,
+                    format!(
+                        "no such file or built-in scenario; the built-ins are {} (`tlsmpm list`)",
+                        names.join(", ")
+                    ),
                 ));
             }
         }
@@ -163,18 +231,69 @@ impl Common {
                 .unwrap_or_else(|| Path::new("out").join(name)),
             threads: self.threads,
             force: self.force,
+            stop: Some(&interrupt::STOP),
         }
     }
 }
 
-/// A progress bar on stderr that appears only after a second, and never when quiet or
-/// when stderr is not a terminal.
+/// Run `body` with its output staged for `options.out_dir` (see
+/// [`tlsmpm::output::run_dir`]): a success replaces `--out` whole; a numerical failure or
+/// an interrupt keeps its partial output (in `--out` if that was free, else beside it);
+/// bad input leaves nothing. Returns the result and where the files are.
+fn staged_run<T>(
+    options: &RunOptions,
+    force: bool,
+    body: impl FnOnce(&RunOptions) -> tlsmpm::Result<T>,
+) -> anyhow::Result<(T, PathBuf)> {
+    let staged = StagedDir::create(&options.out_dir, force)?;
+    let inner = RunOptions {
+        out_dir: staged.path().to_path_buf(),
+        ..options.clone()
+    };
+    match body(&inner) {
+        Ok(value) => {
+            let dir = staged.commit()?;
+            Ok((value, dir))
+        }
+        Err(err) if err.is_input_error() => {
+            staged.discard();
+            Err(err.into())
+        }
+        Err(err) => {
+            let target = staged.target().to_path_buf();
+            let kept = staged.keep_incomplete()?;
+            if kept == target {
+                Err(err.into())
+            } else {
+                Err(anyhow::Error::new(err).context(format!(
+                    "{} kept; this run's partial output is in {}",
+                    target.display(),
+                    kept.display()
+                )))
+            }
+        }
+    }
+}
+
+/// Progress on stderr, never when quiet: on a terminal a bar that appears after a
+/// second; otherwise (a pipe or a log file) one line every [`LINE_EVERY`].
 struct Progress {
     bar: ProgressBar,
     start: Instant,
     visible: bool,
-    enabled: bool,
+    mode: ProgressMode,
+    last_line: Instant,
 }
+
+#[derive(Clone, Copy, PartialEq)]
+enum ProgressMode {
+    Off,
+    Bar,
+    Lines,
+}
+
+/// Interval of the progress lines when stderr is not a terminal.
+const LINE_EVERY: Duration = Duration::from_secs(10);
 
 impl Progress {
     fn new(quiet: bool) -> Self {
@@ -184,25 +303,43 @@ impl Progress {
         ) {
             bar.set_style(style.progress_chars("=> "));
         }
+        let mode = match (quiet, std::io::stderr().is_terminal()) {
+            (true, _) => ProgressMode::Off,
+            (false, true) => ProgressMode::Bar,
+            (false, false) => ProgressMode::Lines,
+        };
         Self {
             bar,
             start: Instant::now(),
             visible: false,
-            enabled: !quiet && std::io::stderr().is_terminal(),
+            mode,
+            last_line: Instant::now(),
         }
     }
 
     fn update(&mut self, prefix: &str, step: usize, total: usize) {
-        if !self.enabled {
-            return;
+        match self.mode {
+            ProgressMode::Off => {}
+            ProgressMode::Lines => {
+                if self.last_line.elapsed() >= LINE_EVERY {
+                    self.last_line = Instant::now();
+                    let elapsed = self.start.elapsed().as_secs_f64();
+                    eprintln!(
+                        "{prefix}: step {step}/{total} ({:.0}%), {elapsed:.0} s",
+                        100.0 * step as f64 / total.max(1) as f64
+                    );
+                }
+            }
+            ProgressMode::Bar => {
+                if !self.visible && self.start.elapsed() > Duration::from_secs(1) {
+                    self.bar.set_draw_target(ProgressDrawTarget::stderr());
+                    self.visible = true;
+                }
+                self.bar.set_prefix(prefix.to_string());
+                self.bar.set_length(total as u64);
+                self.bar.set_position(step as u64);
+            }
         }
-        if !self.visible && self.start.elapsed() > Duration::from_secs(1) {
-            self.bar.set_draw_target(ProgressDrawTarget::stderr());
-            self.visible = true;
-        }
-        self.bar.set_prefix(prefix.to_string());
-        self.bar.set_length(total as u64);
-        self.bar.set_position(step as u64);
     }
 
     fn finish(&self) {
@@ -211,15 +348,27 @@ impl Progress {
 }
 
 fn main() -> ExitCode {
+    interrupt::install();
     let cli = Cli::parse();
     match execute(cli) {
+        Ok(()) if interrupt::requested() => {
+            // The signal came after the last step: the output is complete.
+            eprintln!("interrupted (after the output was complete)");
+            ExitCode::from(130)
+        }
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             let code = err
                 .downcast_ref::<tlsmpm::Error>()
                 .map_or(1, tlsmpm::Error::exit_code);
-            // Library messages already carry their cause: print the top level only.
-            eprintln!("error: {err}");
+            // Library messages carry their cause; a context (where the partial output
+            // went) comes first.
+            match err.downcast_ref::<tlsmpm::Error>() {
+                Some(inner) if err.chain().count() > 1 => {
+                    eprintln!("error: {inner}; {err}")
+                }
+                _ => eprintln!("error: {err}"),
+            }
             ExitCode::from(code as u8)
         }
     }
@@ -340,13 +489,18 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             let (scenario, name) = common.load()?;
             let options = common.options(&name);
             let mut progress = Progress::new(common.quiet);
-            let result = app::run(&scenario, &name, &options, &mut |step, total| {
-                progress.update("run", step, total)
+            let result = staged_run(&options, common.force, |options| {
+                app::run(&scenario, &name, options, &mut |step, total| {
+                    progress.update("run", step, total)
+                })
             });
             progress.finish();
-            let summary = result?;
+            let (summary, dir) = result?;
+            for warning in &summary.warnings {
+                eprintln!("warning: {warning}");
+            }
             if !common.quiet {
-                print_summary(&summary, &options.out_dir);
+                print_summary(&summary, &dir);
             }
             Ok(())
         }
@@ -354,13 +508,17 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             let (scenario, name) = common.load()?;
             let options = common.options(&name);
             let mut progress = Progress::new(common.quiet);
-            let rows = app::study(&scenario, &name, &cells, &options, &mut |n, step, total| {
-                progress.update(&format!("{n} cells"), step, total)
+            let result = staged_run(&options, common.force, |options| {
+                app::study(&scenario, &name, &cells, options, &mut |n, step, total| {
+                    progress.update(&format!("{n} cells"), step, total)
+                })
             });
             progress.finish();
-            let rows = rows?;
-            print!("{}", app::study::format_table(&rows));
-            println!("wrote {}", options.out_dir.join("study.csv").display());
+            let (rows, dir) = result?;
+            if !common.quiet {
+                print!("{}", app::study::format_table(&rows));
+                println!("wrote {}", dir.join("study.csv").display());
+            }
             Ok(())
         }
     }

@@ -18,6 +18,17 @@ pub use parse::{apply_override, display_float, from_str, load, require_positive}
 pub use schema::*;
 pub use validate_tensor::integer_root;
 
+/// A scenario value as a scenario file writes it (`"neo_hookean"`, not `NeoHookean`), for
+/// error messages.
+///
+/// ```
+/// use tlsmpm::config::{toml_value, MaterialModel};
+/// assert_eq!(toml_value(&MaterialModel::NeoHookean), "\"neo_hookean\"");
+/// ```
+pub fn toml_value<T: serde::Serialize>(value: &T) -> String {
+    serde_json::to_string(value).unwrap_or_else(|_| "(unprintable)".into())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -33,13 +33,10 @@ impl Scenario {
             .along_x()
             .checked_mul(self.particles.per_cell);
         if particles.is_none_or(|n| n > MAX_PARTICLES) {
-            return Err(Error::invalid(
-                "grid.cells",
+            return Err(too_many_particles(
                 self.grid.cells.along_x(),
-                format!(
-                    "with particles.per_cell = {} that is more than {MAX_PARTICLES:e} particles",
-                    self.particles.per_cell
-                ),
+                self.grid.cells.along_x().to_string(),
+                self.particles.per_cell,
             ));
         }
         require_positive("material.density", self.material.density)?;
@@ -136,7 +133,7 @@ impl Scenario {
             } else {
                 Error::invalid(
                     "material.model",
-                    format!("{:?}", self.material.model),
+                    toml_value(&self.material.model),
                     "problem.kind = \"consolidation\" needs material.model = \"two_phase\"",
                 )
             });
@@ -145,7 +142,7 @@ impl Scenario {
             return Err(Error::invalid(
                 "method.scheme",
                 "\"usl\"",
-                "the two-phase step is MUSL only (SPEC §2.1)",
+                "the two-phase step is MUSL only",
             ));
         }
         if self.method.strain == Some(StrainKind::Adjoint) {
@@ -231,5 +228,25 @@ impl Scenario {
             ));
         }
         Ok(())
+    }
+}
+
+/// The error for more than [`MAX_PARTICLES`] particles, blaming the larger factor of
+/// `cells` (the product of the cell counts, shown as `cells_text`) and `per_cell`.
+pub(crate) fn too_many_particles(cells: usize, cells_text: String, per_cell: usize) -> Error {
+    if per_cell > cells {
+        Error::invalid(
+            "particles.per_cell",
+            per_cell,
+            format!("with grid.cells = {cells_text} that is more than {MAX_PARTICLES:e} particles"),
+        )
+    } else {
+        Error::invalid(
+            "grid.cells",
+            cells_text,
+            format!(
+                "with particles.per_cell = {per_cell} that is more than {MAX_PARTICLES:e} particles"
+            ),
+        )
     }
 }

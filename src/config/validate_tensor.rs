@@ -155,13 +155,11 @@ impl Scenario {
             .iter()
             .try_fold(per_cell, |acc, &n| acc.checked_mul(n));
         if total.is_none_or(|n| n > MAX_PARTICLES) {
-            return Err(Error::invalid(
-                "grid.cells",
+            let cell_count = cells.iter().fold(1_usize, |acc, &n| acc.saturating_mul(n));
+            return Err(super::validate::too_many_particles(
+                cell_count,
                 format!("{cells:?}"),
-                format!(
-                    "with particles.per_cell = {per_cell} that is more than {MAX_PARTICLES:e} \
-                     particles"
-                ),
+                per_cell,
             ));
         }
         match self.material.model {

@@ -4,9 +4,11 @@
 pub mod atomic;
 pub mod csv;
 pub mod plot;
+pub mod run_dir;
 pub mod scatter;
 pub mod summary;
 pub mod tensor_csv;
+pub mod thinning;
 pub mod vtu;
 
 pub use atomic::write_atomic;

@@ -6,10 +6,14 @@
 //! * [`profile_plot`]: linear axes, e.g. a stress or velocity profile against position, with
 //!   numerical values drawn as points and the exact solution as a line;
 //! * [`loglog_plot`]: logarithmic axes, e.g. the RMS error against the cell size `h` of a
-//!   convergence study.
+//!   convergence study;
+//! * [`semilogy_plot`]: linear `x`, logarithmic `y`, e.g. the error at every particle
+//!   against its position (errors of 1e-3 and 1e-10 both readable).
 //!
 //! Each figure has a title, axis labels, a grid, one colour per series from a fixed palette,
 //! and a legend with the series labels placed in the corner that hides the fewest points.
+//! Series longer than a few thousand points are thinned to what the figure can show
+//! ([`crate::output::thinning`]), so the file size does not grow with the particle count.
 //! Text is written as SVG `<text>` elements and rendered by the viewer, so no font file or
 //! font library is needed.
 //!
@@ -20,12 +24,15 @@
 
 use crate::error::{Error, Result};
 use crate::output::atomic::write_atomic;
+use crate::output::thinning::{thin_line, thin_points, MAX_MARKS};
 use plotters::backend::SVGBackend;
 use plotters::chart::{ChartBuilder, SeriesLabelPosition};
 use plotters::coord::combinators::{BindKeyPoints, IntoLogRange};
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::drawing::{DrawingAreaErrorKind, IntoDrawingArea};
-use plotters::element::{Circle, PathElement};
+use plotters::element::{
+    Circle, Cross, EmptyElement, PathElement, Rectangle, Text, TriangleMarker,
+};
 use plotters::series::LineSeries;
 use plotters::style::{Color, IntoFont, RGBColor, BLACK, WHITE};
 use std::path::Path;
@@ -50,6 +57,26 @@ const PALETTE: [RGBColor; 10] = [
 /// Line width of [`Style::Line`] series, in pixels.
 const LINE_WIDTH: u32 = 2;
 
+/// Line width of [`Style::Reference`] series, in pixels.
+const REFERENCE_WIDTH: u32 = 1;
+
+/// Marker shapes; series `k` (counting the non-reference series) gets colour
+/// `k % 10` and shape `k / 10 % 4`, so that up to 40 series of a plot all look different.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Marker {
+    Circle,
+    Square,
+    Triangle,
+    Cross,
+}
+
+const MARKERS: [Marker; 4] = [
+    Marker::Circle,
+    Marker::Square,
+    Marker::Triangle,
+    Marker::Cross,
+];
+
 /// Marker radius of [`Style::Points`] series, in pixels.
 const POINT_RADIUS: i32 = 3;
 
@@ -65,6 +92,12 @@ const TINY: f64 = 1e-250;
 pub enum Style {
     /// A polyline through the points, broken where a point is skipped.
     Line,
+    /// An exact solution or reference: a thin dark line that takes no palette colour. Put
+    /// it first so that the other series are drawn over it.
+    Reference,
+    /// A guide line (e.g. a slope of a convergence plot): thin, grey, its label written at
+    /// its last point instead of in the legend.
+    Guide,
     /// A small filled circle at each point.
     Points,
     /// A polyline with a filled circle at each point, in the same colour.
@@ -98,14 +131,16 @@ pub struct Axes<'a> {
 /// Non-finite points are skipped. Writes an SVG file to `path` atomically; fails with
 /// [`Error::WriteOutput`] if the data range cannot be represented or the file cannot be written.
 pub fn profile_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
-    let data = prepare(series, |v| v.is_finite());
+    let data = prepare(series, |v| v.is_finite(), |v| v.is_finite());
     let (x_min, x_max) = bounds(&data, |p| p.0);
     let (y_min, y_max) = bounds(&data, |p| p.1);
     let x_range = linear_range(x_min, x_max)
         .ok_or_else(|| Error::write(path, "x data range too wide to plot"))?;
     let y_range = linear_range(y_min, y_max)
         .ok_or_else(|| Error::write(path, "y data range too wide to plot"))?;
-    let legend = legend_corner(&data, x_range, y_range, |v| v);
+    let mut data = data;
+    thin(&mut data, x_range, y_range, |v| v, |v| v);
+    let legend = legend_corner(&data, x_range, y_range, |v| v, |v| v);
     let svg = render(
         axes,
         &data,
@@ -124,15 +159,45 @@ pub fn profile_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
 /// power of ten. Writes an SVG file to `path` atomically; fails with [`Error::WriteOutput`] if
 /// the data spans too many decades or the file cannot be written.
 pub fn loglog_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
-    let data = prepare(series, |v| v.is_normal() && v > 0.0);
+    loglog_plot_ticked(path, axes, series, &[])
+}
+
+/// [`loglog_plot`] with a labelled tick at each of `x_ticks` (e.g. every cell size of a
+/// convergence study) in addition to the powers of ten.
+pub fn loglog_plot_ticked(
+    path: &Path,
+    axes: &Axes,
+    series: &[Series],
+    x_ticks: &[f64],
+) -> Result<()> {
+    let positive = |v: f64| v.is_normal() && v > 0.0;
+    let data = prepare(series, positive, positive);
     let (x_min, x_max) = bounds(&data, |p| p.0);
     let (y_min, y_max) = bounds(&data, |p| p.1);
     let x_range = log_range(x_min, x_max)
         .ok_or_else(|| Error::write(path, "x data spans too many decades to plot"))?;
     let y_range = log_range(y_min, y_max)
         .ok_or_else(|| Error::write(path, "y data spans too many decades to plot"))?;
-    let legend = legend_corner(&data, x_range, y_range, f64::ln);
-    let (x_bold, x_light) = log_ticks(x_range);
+    let mut data = data;
+    thin(&mut data, x_range, y_range, f64::ln, f64::ln);
+    let legend = legend_corner(&data, x_range, y_range, f64::ln, f64::ln);
+    let (mut x_bold, mut x_light) = log_ticks(x_range);
+    if !x_ticks.is_empty() {
+        // Only the given ticks and the powers of ten are labelled.
+        let (decades, others): (Vec<f64>, Vec<f64>) = x_bold
+            .iter()
+            .partition(|&&v| decade(v.log10().round() as i32) == v);
+        x_light.extend(others);
+        x_bold = decades;
+        x_bold.extend(
+            x_ticks
+                .iter()
+                .copied()
+                .filter(|v| (x_range.0..=x_range.1).contains(v)),
+        );
+        x_bold.sort_by(f64::total_cmp);
+        x_bold.dedup();
+    }
     let (y_bold, y_light) = log_ticks(y_range);
     let svg = render(
         axes,
@@ -144,6 +209,37 @@ pub fn loglog_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
                 .with_light_points(x_light),
             TickFormat::new(x_range, true),
         ),
+        (
+            (y_range.0..y_range.1)
+                .log_scale()
+                .with_key_points(y_bold)
+                .with_light_points(y_light),
+            TickFormat::new(y_range, true),
+        ),
+        legend,
+    )
+    .map_err(|e| Error::write(path, e))?;
+    write_atomic(path, svg.as_bytes())
+}
+
+/// Linear `x`, logarithmic `y` (e.g. the error at every particle against its position);
+/// non-positive and non-finite `y` are skipped, as in [`loglog_plot`].
+pub fn semilogy_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
+    let data = prepare(series, |v| v.is_finite(), |v| v.is_normal() && v > 0.0);
+    let (x_min, x_max) = bounds(&data, |p| p.0);
+    let (y_min, y_max) = bounds(&data, |p| p.1);
+    let x_range = linear_range(x_min, x_max)
+        .ok_or_else(|| Error::write(path, "x data range too wide to plot"))?;
+    let y_range = log_range(y_min, y_max)
+        .ok_or_else(|| Error::write(path, "y data spans too many decades to plot"))?;
+    let mut data = data;
+    thin(&mut data, x_range, y_range, |v| v, f64::ln);
+    let legend = legend_corner(&data, x_range, y_range, |v| v, f64::ln);
+    let (y_bold, y_light) = log_ticks(y_range);
+    let svg = render(
+        axes,
+        &data,
+        (x_range.0..x_range.1, TickFormat::new(x_range, false)),
         (
             (y_range.0..y_range.1)
                 .log_scale()
@@ -174,15 +270,20 @@ impl Prepared {
     }
 }
 
-/// Keep the points whose coordinates both satisfy `valid`, split into runs at the others.
-fn prepare(series: &[Series], valid: impl Fn(f64) -> bool) -> Vec<Prepared> {
+/// Keep the points whose coordinates satisfy `valid_x` and `valid_y`, split into runs at
+/// the others.
+fn prepare(
+    series: &[Series],
+    valid_x: impl Fn(f64) -> bool,
+    valid_y: impl Fn(f64) -> bool,
+) -> Vec<Prepared> {
     series
         .iter()
         .map(|s| {
             let mut runs = Vec::new();
             let mut run = Vec::new();
             for (&x, &y) in s.x.iter().zip(s.y.iter()) {
-                if valid(x) && valid(y) {
+                if valid_x(x) && valid_y(y) {
                     run.push((x, y));
                 } else if !run.is_empty() {
                     runs.push(std::mem::take(&mut run));
@@ -198,6 +299,44 @@ fn prepare(series: &[Series], valid: impl Fn(f64) -> bool) -> Vec<Prepared> {
             }
         })
         .collect()
+}
+
+/// Approximate pixel size of the plotting area (the figure less margins and labels).
+const AREA: (f64, f64) = (690.0, 445.0);
+
+/// Thin every series of more than [`MAX_MARKS`] points to what the figure shows: lines by
+/// pixel column, points by pixel cell ([`crate::output::thinning`]). `scale_x` and
+/// `scale_y` map data to the axis scales (identity or ln).
+fn thin(
+    data: &mut [Prepared],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    scale_x: impl Fn(f64) -> f64 + Copy,
+    scale_y: impl Fn(f64) -> f64 + Copy,
+) {
+    let (sx0, sx1, sy0, sy1) = (scale_x(x0), scale_x(x1), scale_y(y0), scale_y(y1));
+    let to_pixel = |(x, y): (f64, f64)| {
+        (
+            (scale_x(x) - sx0) / (sx1 - sx0) * AREA.0,
+            (scale_y(y) - sy0) / (sy1 - sy0) * AREA.1,
+        )
+    };
+    for series in data {
+        if series.points().count() <= MAX_MARKS {
+            continue;
+        }
+        match series.style {
+            Style::Points => {
+                let all: Vec<(f64, f64)> = series.points().copied().collect();
+                series.runs = vec![thin_points(&all, to_pixel)];
+            }
+            Style::Line | Style::LinePoints | Style::Reference | Style::Guide => {
+                for run in &mut series.runs {
+                    *run = thin_line(run, to_pixel);
+                }
+            }
+        }
+    }
 }
 
 /// Minimum and maximum of one coordinate over all points; `(+inf, -inf)` if there are none.
@@ -314,19 +453,22 @@ fn log_ticks((lo, hi): (f64, f64)) -> (Vec<f64>, Vec<f64>) {
 
 /// Where to put the legend: the candidate box (four corners, then top and bottom centre)
 /// over which the fewest data points and line samples fall; earlier candidates win ties.
-/// `scale` maps data to the axis scale (identity or ln).
+/// `scale_x` and `scale_y` map data to the axis scales (identity or ln).
 fn legend_corner(
     data: &[Prepared],
     (x0, x1): (f64, f64),
     (y0, y1): (f64, f64),
-    scale: impl Fn(f64) -> f64,
+    scale_x: impl Fn(f64) -> f64,
+    scale_y: impl Fn(f64) -> f64,
 ) -> SeriesLabelPosition {
     use SeriesLabelPosition::{
         LowerLeft, LowerMiddle, LowerRight, UpperLeft, UpperMiddle, UpperRight,
     };
     // Legend size as a fraction of the plotting area (about 690 × 445 px), from the label
     // font (about 6.4 px per character, 14 px per line) and plotters' legend padding.
-    let labelled = data.iter().filter(|s| !s.label.is_empty());
+    let labelled = data
+        .iter()
+        .filter(|s| !s.label.is_empty() && s.style != Style::Guide);
     let chars = labelled
         .clone()
         .map(|s| s.label.chars().count())
@@ -335,11 +477,11 @@ fn legend_corner(
     let lines = labelled.count();
     let fw = ((6.4 * chars as f64 + 60.0) / 690.0).min(1.0);
     let fh = ((14.0 * lines as f64 + 25.0) / 445.0).min(1.0);
-    let (sx0, sx1, sy0, sy1) = (scale(x0), scale(x1), scale(y0), scale(y1));
+    let (sx0, sx1, sy0, sy1) = (scale_x(x0), scale_x(x1), scale_y(y0), scale_y(y1));
     let normalise = |(x, y): (f64, f64)| {
         (
-            (scale(x) - sx0) / (sx1 - sx0),
-            (scale(y) - sy0) / (sy1 - sy0),
+            (scale_x(x) - sx0) / (sx1 - sx0),
+            (scale_y(y) - sy0) / (sy1 - sy0),
         )
     };
     let (left, centre, right) = ((0.0, fw), (0.5 - 0.5 * fw, 0.5 + 0.5 * fw), (1.0 - fw, 1.0));
@@ -365,7 +507,10 @@ fn legend_corner(
             let mut previous: Option<(f64, f64)> = None;
             for &p in run {
                 let (u, v) = normalise(p);
-                if let (Style::Line | Style::LinePoints, Some((pu, pv))) = (series.style, previous)
+                if let (
+                    Style::Line | Style::LinePoints | Style::Reference | Style::Guide,
+                    Some((pu, pv)),
+                ) = (series.style, previous)
                 {
                     for i in 1..SAMPLES {
                         let t = f64::from(i) / f64::from(SAMPLES);
@@ -485,23 +630,65 @@ where
             .bold_line_style(BLACK.mix(0.2))
             .draw()?;
 
-        for (i, series) in data.iter().enumerate() {
-            let colour = PALETTE[i % PALETTE.len()];
+        let mut coloured = 0;
+        for series in data {
+            let (colour, marker, width) = if series.style == Style::Reference {
+                (RGBColor(40, 40, 40), Marker::Circle, REFERENCE_WIDTH)
+            } else if series.style == Style::Guide {
+                (RGBColor(150, 150, 150), Marker::Circle, REFERENCE_WIDTH)
+            } else {
+                let k = coloured;
+                coloured += 1;
+                (
+                    PALETTE[k % PALETTE.len()],
+                    MARKERS[(k / PALETTE.len()) % MARKERS.len()],
+                    LINE_WIDTH,
+                )
+            };
+            let line = matches!(
+                series.style,
+                Style::Line | Style::LinePoints | Style::Reference | Style::Guide
+            );
             for run in &series.runs {
-                let line = matches!(series.style, Style::Line | Style::LinePoints);
                 if line && run.len() > 1 {
                     chart.draw_series(LineSeries::new(
                         run.iter().copied(),
-                        colour.stroke_width(LINE_WIDTH),
+                        colour.stroke_width(width),
                     ))?;
                 }
-                // Points, marked lines, and isolated points of a line, as filled circles.
-                if series.style != Style::Line || run.len() == 1 {
-                    chart.draw_series(
-                        run.iter()
-                            .map(|&p| Circle::new(p, POINT_RADIUS, colour.filled())),
-                    )?;
+                // Points, marked lines, and isolated points of a line, as markers.
+                if matches!(series.style, Style::Points | Style::LinePoints) || run.len() == 1 {
+                    let r = POINT_RADIUS;
+                    match marker {
+                        Marker::Circle => chart
+                            .draw_series(run.iter().map(|&p| Circle::new(p, r, colour.filled())))?,
+                        Marker::Square => chart.draw_series(run.iter().map(|&p| {
+                            EmptyElement::at(p)
+                                + Rectangle::new([(-r, -r), (r, r)], colour.filled())
+                        }))?,
+                        Marker::Triangle => chart.draw_series(
+                            run.iter()
+                                .map(|&p| TriangleMarker::new(p, r + 1, colour.filled())),
+                        )?,
+                        Marker::Cross => chart.draw_series(
+                            run.iter()
+                                .map(|&p| Cross::new(p, r, colour.stroke_width(2))),
+                        )?,
+                    };
                 }
+            }
+            if series.style == Style::Guide {
+                if let Some(&end) = series.runs.last().and_then(|run| run.last()) {
+                    chart.draw_series(std::iter::once(
+                        EmptyElement::at(end)
+                            + Text::new(
+                                series.label.clone(),
+                                (4, -14),
+                                ("sans-serif", 13).into_font().color(&colour),
+                            ),
+                    ))?;
+                }
+                continue;
             }
             if series.label.is_empty() {
                 continue;
@@ -509,21 +696,36 @@ where
             // An empty series that only carries the legend entry.
             let anno = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?;
             anno.label(series.label.as_str());
-            match series.style {
-                Style::Line => {
+            let r = POINT_RADIUS;
+            match (series.style, marker) {
+                (Style::Line | Style::Reference | Style::Guide, _) => {
                     anno.legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(LINE_WIDTH))
+                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(width))
                     });
                 }
-                Style::Points | Style::LinePoints => {
+                (_, Marker::Circle) => {
+                    anno.legend(move |(x, y)| Circle::new((x + 10, y), r, colour.filled()));
+                }
+                (_, Marker::Square) => {
                     anno.legend(move |(x, y)| {
-                        Circle::new((x + 10, y), POINT_RADIUS, colour.filled())
+                        Rectangle::new([(x + 10 - r, y - r), (x + 10 + r, y + r)], colour.filled())
                     });
+                }
+                (_, Marker::Triangle) => {
+                    anno.legend(move |(x, y)| {
+                        TriangleMarker::new((x + 10, y), r + 1, colour.filled())
+                    });
+                }
+                (_, Marker::Cross) => {
+                    anno.legend(move |(x, y)| Cross::new((x + 10, y), r, colour.stroke_width(2)));
                 }
             }
         }
 
-        if data.iter().any(|s| !s.label.is_empty()) {
+        if data
+            .iter()
+            .any(|s| !s.label.is_empty() && s.style != Style::Guide)
+        {
             chart
                 .configure_series_labels()
                 .position(legend)

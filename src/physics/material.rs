@@ -151,7 +151,7 @@ impl Material {
         Self::from_config(config).ok_or_else(|| {
             crate::error::Error::invalid(
                 "material.model",
-                format!("{:?}", config.model),
+                crate::config::toml_value(&config.model),
                 "not a one-phase elastic model",
             )
         })

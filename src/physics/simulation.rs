@@ -8,7 +8,7 @@ use crate::error::Result;
 use crate::particles::Particles;
 
 /// One row of `history.csv` (DESIGN §4).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HistoryRow {
     pub step: usize,
     pub time: f64,

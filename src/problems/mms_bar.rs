@@ -58,7 +58,7 @@ impl MmsBar {
             _ => {
                 return Err(Error::invalid(
                     "material.model",
-                    format!("{:?}", scenario.material.model),
+                    crate::config::toml_value(&scenario.material.model),
                     "the manufactured solution of problem.kind = \"mms_bar\" is for \
                      material.model = \"neo_hookean\"",
                 ))

@@ -119,7 +119,7 @@ impl<const D: usize> TensorProblem<D> {
             other => {
                 return Err(Error::invalid(
                     "problem.kind",
-                    format!("{other:?}"),
+                    crate::config::toml_value(&other),
                     "is 1D only (problem.dim = 1)",
                 ))
             }

@@ -22,6 +22,7 @@ fn options(dir: &tempfile::TempDir, threads: Option<usize>) -> RunOptions {
         out_dir: dir.path().to_path_buf(),
         threads,
         force: false,
+        stop: None,
     }
 }
 

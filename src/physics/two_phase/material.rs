@@ -57,7 +57,7 @@ impl TwoPhaseMaterial {
         if config.model != MaterialModel::TwoPhase {
             return Err(Error::invalid(
                 "material.model",
-                format!("{:?}", config.model),
+                crate::config::toml_value(&config.model),
                 "not a two-phase model",
             ));
         }
