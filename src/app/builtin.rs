@@ -13,35 +13,35 @@ pub const BUILTIN: &[Builtin] = &[
     Builtin {
         name: "vibrating_bar",
         description:
-            "vibrating bar, small deformation (SPEC 6.2): 40 cells, 12 PPC, exact solution",
+            "vibrating bar, small deformation (Wobbes et al. 2019): 40 cells, 12 PPC, exact solution",
         toml: include_str!("../../scenarios/vibrating_bar.toml"),
     },
     Builtin {
         name: "vibrating_bar_large",
         description:
-            "vibrating bar, large deformation (SPEC 6.3): Hill law, 20 cells, 8 PPC, grid crossing",
+            "vibrating bar, large deformation (Wobbes et al. 2019): Hill law, 20 cells, 8 PPC, grid crossing",
         toml: include_str!("../../scenarios/vibrating_bar_large.toml"),
     },
     Builtin {
         name: "column_compaction",
-        description: "column compaction (SPEC 6.4): Hill law, ramped gravity, 50 cells, 20 PPC",
+        description: "column compaction (Bardenhagen & Kober): Hill law, ramped gravity, 50 cells, 20 PPC",
         toml: include_str!("../../scenarios/column_compaction.toml"),
     },
     Builtin {
         name: "consolidation",
-        description: "two-phase consolidation, small deformation (SPEC 6.6): Terzaghi, \
+        description: "two-phase consolidation, small deformation: Terzaghi, \
                       from t = 5 s, 20 cells, 4 PPC",
         toml: include_str!("../../scenarios/consolidation.toml"),
     },
     Builtin {
         name: "consolidation_large",
-        description: "two-phase consolidation, large deformation (SPEC 6.6): Hill skeleton, \
+        description: "two-phase consolidation, large deformation: Hill skeleton, \
                       BSMPM-TLS lumped, 120 cells, 16 PPC, 0.4 s",
         toml: include_str!("../../scenarios/consolidation_large.toml"),
     },
     Builtin {
         name: "mms_bar",
-        description: "manufactured-solution bar (SPEC 6.5): neo-Hookean, A = 0.1 m, body force \
+        description: "manufactured-solution bar (Tran et al. 2019): neo-Hookean, A = 0.1 m, body force \
                       at the particles, 32 cells, 3 PPC",
         toml: include_str!("../../scenarios/mms_bar.toml"),
     },
