@@ -8,10 +8,12 @@
 //! for every component `c`. A component's eliminated DOFs are the nodes without mass
 //! (`m_I <= 1e-12 max m`) and the nodes whose component `c` a face condition holds (a
 //! roller wall holds only its normal component, so each component has its own set): their
-//! rows and columns are replaced by the identity and their values set to 0. Each component
-//! has its own constrained copy of the one assembled `M^C` and its own solver; the
-//! velocity solve of a step reuses the set-up of the acceleration solve
-//! ([`LinearSolver::resolve`]) and both start from the previous step's solution.
+//! rows and columns are replaced by the identity and their values set to 0. Components
+//! whose eliminated sets are equal (no roller walls, or rollers on no face of their axes)
+//! share one constrained copy of the assembled `M^C` and one solver set-up (factorisation,
+//! preconditioner); a roller wall gives its component a system of its own. The velocity
+//! solve of a step reuses the set-up of the acceleration solve ([`LinearSolver::resolve`]),
+//! and every solve starts from the component's solution of the previous step.
 
 use super::boundary::NodeConstraints;
 use crate::config::MassKind;
@@ -25,6 +27,9 @@ struct ComponentSystem {
     /// In a mutex only so that the stepper is `Sync`; reached through `get_mut`.
     solver: std::sync::Mutex<Box<dyn LinearSolver>>,
     keep: Vec<bool>,
+    /// The earlier component whose matrix and solver this one uses (equal `keep`) this
+    /// step; `None` when it has its own.
+    shared_with: Option<usize>,
     matrix: Option<CsrMatrix>,
     acceleration: Vec<f64>,
     velocity: Vec<f64>,
@@ -63,6 +68,7 @@ impl<const D: usize> TensorMassSolve<D> {
                 Ok(ComponentSystem {
                     solver: std::sync::Mutex::new(make_solver()?),
                     keep: vec![false; dofs],
+                    shared_with: None,
                     matrix: None,
                     acceleration: vec![0.0; dofs],
                     velocity: vec![0.0; dofs],
@@ -93,21 +99,38 @@ impl<const D: usize> TensorMassSolve<D> {
     /// and diagnostics); `None` before the first step or for `c >= D`.
     pub fn constrained_system(&self, c: usize) -> Option<(&CsrMatrix, &[bool])> {
         let system = self.components.get(c)?;
-        Some((system.matrix.as_ref()?, &system.keep))
+        let owner = &self.components[system.shared_with.unwrap_or(c)];
+        Some((owner.matrix.as_ref()?, &owner.keep))
+    }
+
+    /// The number of distinct constrained systems (matrix copies and solver set-ups) of
+    /// the last step: 1 without roller walls, up to `D` with them.
+    pub fn distinct_systems(&self) -> usize {
+        self.components
+            .iter()
+            .filter(|s| s.shared_with.is_none())
+            .count()
     }
 
     /// The constrained systems of this step's `matrix` and masses.
     pub fn prepare(&mut self, mass: &[f64], matrix: &CsrMatrix) {
         let largest = mass.iter().copied().fold(0.0, f64::max);
         let threshold = MIN_RELATIVE_MASS * largest;
-        for (c, system) in self.components.iter_mut().enumerate() {
+        for c in 0..D {
+            let (earlier, rest) = self.components.split_at_mut(c);
+            let system = &mut rest[0];
             for ((keep, &m), held) in system.keep.iter_mut().zip(mass).zip(&self.held) {
                 *keep = m > threshold && !held[c];
             }
-            let constrained = system.matrix.get_or_insert_with(|| matrix.clone());
-            constrained.values.copy_from_slice(&matrix.values);
-            constrained.constrain(&system.keep);
             system.solved_this_step = false;
+            system.shared_with = earlier
+                .iter()
+                .position(|e| e.shared_with.is_none() && e.keep == system.keep);
+            if system.shared_with.is_none() {
+                let constrained = system.matrix.get_or_insert_with(|| matrix.clone());
+                constrained.values.copy_from_slice(&matrix.values);
+                constrained.constrain(&system.keep);
+            }
         }
     }
 
@@ -137,39 +160,145 @@ impl<const D: usize> TensorMassSolve<D> {
     }
 
     /// Solve component `c`'s system with right-hand side `b(i)` (0 on eliminated DOFs),
-    /// warm-started from the previous solution.
+    /// warm-started from its previous solution, with the matrix and solver it shares.
     fn solve(&mut self, c: usize, acceleration: bool, b: impl Fn(usize) -> f64) -> Result<()> {
-        let system = &mut self.components[c];
-        let solver = system
-            .solver
-            .get_mut()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let owner = self.components[c].shared_with.unwrap_or(c);
+        let mut x = std::mem::take(if acceleration {
+            &mut self.components[c].acceleration
+        } else {
+            &mut self.components[c].velocity
+        });
+        let system = &mut self.components[owner];
         for (i, r) in self.rhs.iter_mut().enumerate() {
             *r = if system.keep[i] { b(i) } else { 0.0 };
         }
-        let matrix = system.matrix.as_ref().ok_or_else(|| Error::Solver {
-            solver: solver.name().into(),
-            reason: "no consistent mass matrix was assembled".into(),
-        })?;
-        let x = if acceleration {
-            &mut system.acceleration
-        } else {
-            &mut system.velocity
-        };
         for (xi, &keep) in x.iter_mut().zip(&system.keep) {
             if !keep || !xi.is_finite() {
                 *xi = 0.0;
             }
         }
-        let stats = if system.solved_this_step {
-            solver.resolve(matrix, &self.rhs, x)?
-        } else {
-            solver.solve(matrix, &self.rhs, x)?
+        let solver = system
+            .solver
+            .get_mut()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let stats = match system.matrix.as_ref() {
+            None => Err(Error::Solver {
+                solver: solver.name().into(),
+                reason: "no consistent mass matrix was assembled".into(),
+            }),
+            Some(matrix) if system.solved_this_step => solver.resolve(matrix, &self.rhs, &mut x),
+            Some(matrix) => solver.solve(matrix, &self.rhs, &mut x),
         };
         system.solved_this_step = true;
+        let component = &mut self.components[c];
+        if acceleration {
+            component.acceleration = x;
+        } else {
+            component.velocity = x;
+        }
+        let stats = stats?;
         self.solves += 1;
         self.total_iterations += stats.iterations;
         self.max_iterations = self.max_iterations.max(stats.iterations);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linalg::direct::DirectCholesky;
+    use crate::linalg::SolveStats;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+
+    /// A direct solver that counts its set-ups (`solve`) and re-solves (`resolve`).
+    struct Counting {
+        inner: DirectCholesky,
+        setups: Arc<AtomicUsize>,
+        resolves: Arc<AtomicUsize>,
+    }
+
+    impl LinearSolver for Counting {
+        fn name(&self) -> &'static str {
+            "direct"
+        }
+        fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+            self.setups.fetch_add(1, Ordering::Relaxed);
+            self.inner.solve(a, b, x)
+        }
+        fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+            self.resolves.fetch_add(1, Ordering::Relaxed);
+            self.inner.resolve(a, b, x)
+        }
+    }
+
+    /// One step of a 2D system on 5 nodes (tridiagonal `M`), with `held` constraints:
+    /// (set-ups, re-solves, distinct systems, velocities).
+    fn one_step(held: &[(usize, [bool; 2])]) -> (usize, usize, usize, Vec<[f64; 2]>) {
+        let n = 5;
+        let mut triplets = Vec::new();
+        for i in 0..n {
+            triplets.push((i, i, 4.0));
+            if i + 1 < n {
+                triplets.push((i, i + 1, 1.0));
+                triplets.push((i + 1, i, 1.0));
+            }
+        }
+        let matrix = CsrMatrix::from_triplets(n, n, &triplets);
+        let setups = Arc::new(AtomicUsize::new(0));
+        let resolves = Arc::new(AtomicUsize::new(0));
+        let constraints = NodeConstraints::<2> {
+            nodes: held.to_vec(),
+        };
+        let mut solve = TensorMassSolve::<2>::new(
+            MassKind::Consistent,
+            MassKind::Consistent,
+            n,
+            &constraints,
+            || {
+                Ok(Box::new(Counting {
+                    inner: DirectCholesky::new(),
+                    setups: setups.clone(),
+                    resolves: resolves.clone(),
+                }))
+            },
+        )
+        .unwrap();
+        let mut fields = TensorGridFields::<2>::new(n);
+        for i in 0..n {
+            fields.force[i] = [1.0 + i as f64, 2.0 - i as f64];
+            fields.momentum[i] = [0.5 * i as f64, 1.0];
+        }
+        solve.prepare(&[1.0; 5], &matrix);
+        solve.accelerations(&mut fields).unwrap();
+        solve.velocities(&mut fields).unwrap();
+        (
+            setups.load(Ordering::Relaxed),
+            resolves.load(Ordering::Relaxed),
+            solve.distinct_systems(),
+            fields.velocity,
+        )
+    }
+
+    #[test]
+    fn components_with_the_same_constraints_share_one_set_up() {
+        let (setups, resolves, distinct, free) = one_step(&[]);
+        assert_eq!((setups, resolves, distinct), (1, 3, 1));
+        // Both components held at node 0 (a fixed wall): still one system.
+        let (setups, resolves, distinct, fixed) = one_step(&[(0, [true, true])]);
+        assert_eq!((setups, resolves, distinct), (1, 3, 1));
+        assert_eq!(fixed[0], [0.0, 0.0]);
+        assert_ne!(fixed[1], free[1]);
+        // A roller holds only component 0 at node 0: two systems, two set-ups.
+        let (setups, resolves, distinct, roller) = one_step(&[(0, [true, false])]);
+        assert_eq!((setups, resolves, distinct), (2, 2, 2));
+        assert_eq!(roller[0][0], 0.0);
+        // Component 1 is unconstrained there: it equals the free solve; component 0 the
+        // fixed one.
+        for i in 0..5 {
+            assert!((roller[i][1] - free[i][1]).abs() < 1e-14);
+            assert!((roller[i][0] - fixed[i][0]).abs() < 1e-14);
+        }
     }
 }
