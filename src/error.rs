@@ -117,11 +117,24 @@ impl Error {
         }
     }
 
-    /// The run status this error leaves in `summary.json`: `"interrupted"` or `"failed"`.
-    pub fn run_status(&self) -> &'static str {
-        match self {
-            Error::Interrupted { .. } => "interrupted",
-            _ => "failed",
+    /// `summary.json`'s `status` and `failed_step` of a run that ended with `failure` (or
+    /// completed) after `steps_done` steps: `"completed"`, `"failed"` with the step that
+    /// failed, or `"interrupted"` (no failed step: every step it took completed).
+    ///
+    /// ```
+    /// use tlsmpm::Error;
+    /// assert_eq!(Error::run_outcome(None, 5), ("completed", None));
+    /// let stop = Error::Interrupted { step: 5, time: 0.1 };
+    /// assert_eq!(Error::run_outcome(Some(&stop), 5), ("interrupted", None));
+    /// ```
+    pub fn run_outcome(
+        failure: Option<&Error>,
+        steps_done: usize,
+    ) -> (&'static str, Option<usize>) {
+        match failure {
+            None => ("completed", None),
+            Some(Error::Interrupted { .. }) => ("interrupted", None),
+            Some(_) => ("failed", Some(steps_done + 1)),
         }
     }
 

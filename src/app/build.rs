@@ -40,6 +40,7 @@ pub fn build_simulation(
     force: bool,
 ) -> Result<(Box<dyn Problem>, Simulation)> {
     scenario.validate()?;
+    crate::app::memory::check_scenario_fits(scenario)?;
     if scenario.problem.dim != 1 {
         return Err(Error::invalid(
             "problem.dim",

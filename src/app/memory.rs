@@ -22,20 +22,6 @@ pub fn bytes_per_particle(dim: usize) -> u64 {
     }
 }
 
-/// The particle count of a validated scenario (`None` on overflow).
-pub fn particle_count(scenario: &Scenario) -> Option<usize> {
-    let dim = scenario.problem.dim;
-    let per_cell = scenario.particles.per_cell;
-    if dim == 1 {
-        return scenario.grid.cells.along_x().checked_mul(per_cell);
-    }
-    let transverse = crate::problems::tensor::extruded(scenario.problem.kind).then_some(1);
-    let cells = scenario.grid.cells.per_axis(dim, transverse)?;
-    cells
-        .iter()
-        .try_fold(per_cell, |acc, &n| acc.checked_mul(n))
-}
-
 /// Memory available to this process in bytes: `TLSMPM_AVAILABLE_MEMORY` if set (a batch
 /// job's own limit), else `MemAvailable` of `/proc/meminfo`, lowered to the cgroup limit
 /// when one is set; `None` where neither is known.
@@ -98,7 +84,7 @@ pub fn check_fits(particles: usize, dim: usize, available: Option<u64>) -> Resul
 
 /// [`check_fits`] for a validated scenario on this machine.
 pub fn check_scenario_fits(scenario: &Scenario) -> Result<()> {
-    match particle_count(scenario) {
+    match scenario.particle_count() {
         Some(n) => check_fits(n, scenario.problem.dim, available_memory()),
         None => Ok(()),
     }

@@ -54,10 +54,6 @@ pub fn run(
     options: &RunOptions,
     progress: &mut (dyn FnMut(usize, usize) + Send),
 ) -> Result<Summary> {
-    // The ranges first (a particle count that overflows is an input error of its own),
-    // then whether the run fits in memory, before anything is allocated.
-    scenario.validate()?;
-    crate::app::memory::check_scenario_fits(scenario)?;
     if scenario.problem.dim != 1 {
         return crate::app::tensor_run::run_tensor(scenario, name, options, progress);
     }
@@ -232,13 +228,12 @@ fn write_outputs(
     });
     let (basis, reconstruction) = simulation.stepper.method_names();
     let warnings = crate::app::warnings::run_warnings(errors.as_ref(), &simulation.history);
+    let (status, failed_step) = Error::run_outcome(failure, simulation.steps_done);
     let summary = Summary {
         scenario: name.to_string(),
-        status: failure.map_or("completed", Error::run_status).into(),
+        status: status.into(),
         failure: failure.map(|e| e.to_string()),
-        failed_step: failure
-            .filter(|e| !matches!(e, Error::Interrupted { .. }))
-            .map(|_| simulation.steps_done + 1),
+        failed_step,
         problem: problem.name().into(),
         dim: None,
         basis: basis.into(),

@@ -44,6 +44,7 @@ pub fn build_tensor_simulation<const D: usize>(
     force: bool,
 ) -> Result<(TensorProblem<D>, TensorSimulation<D>)> {
     scenario.validate()?;
+    crate::app::memory::check_scenario_fits(scenario)?;
     if scenario.problem.dim != D {
         return Err(Error::invalid(
             "problem.dim",
@@ -496,13 +497,12 @@ fn write_outputs<const D: usize>(
         errors
     });
     let warnings = crate::app::warnings::run_warnings(errors.as_ref(), &simulation.history);
+    let (status, failed_step) = Error::run_outcome(failure, simulation.steps_done);
     let summary = Summary {
         scenario: name.to_string(),
-        status: failure.map_or("completed", Error::run_status).into(),
+        status: status.into(),
         failure: failure.map(|e| e.to_string()),
-        failed_step: failure
-            .filter(|e| !matches!(e, Error::Interrupted { .. }))
-            .map(|_| simulation.steps_done + 1),
+        failed_step,
         problem: problem.name().into(),
         dim: Some(D),
         basis: simulation.stepper.basis_name().into(),

@@ -10,6 +10,27 @@ impl Scenario {
         (self.time.end / self.time.dt.seconds()).round() as usize
     }
 
+    /// Cell counts per axis (`problem.dim` of them); problems extruded from 1D have one
+    /// cell across unless `grid.cells` gives every axis. `None` if `grid.cells` has the
+    /// wrong number of entries.
+    pub fn cells_per_axis(&self) -> Option<Vec<usize>> {
+        let extruded = matches!(
+            self.problem.kind,
+            ProblemKind::VibratingBar | ProblemKind::ColumnCompaction
+        );
+        self.grid
+            .cells
+            .per_axis(self.problem.dim, extruded.then_some(1))
+    }
+
+    /// The number of particles, `particles.per_cell` times the product of the cell counts;
+    /// `None` on overflow or when the cell counts do not fit the dimension.
+    pub fn particle_count(&self) -> Option<usize> {
+        self.cells_per_axis()?
+            .iter()
+            .try_fold(self.particles.per_cell, |acc, &n| acc.checked_mul(n))
+    }
+
     /// Range checks that do not depend on the problem; problem-specific keys are checked
     /// when the problem is built. Returns the first violation.
     pub fn validate(&self) -> Result<()> {
@@ -27,12 +48,7 @@ impl Scenario {
                 "must be at least 1",
             ));
         }
-        let particles = self
-            .grid
-            .cells
-            .along_x()
-            .checked_mul(self.particles.per_cell);
-        if particles.is_none_or(|n| n > MAX_PARTICLES) {
+        if self.particle_count().is_none_or(|n| n > MAX_PARTICLES) {
             return Err(too_many_particles(
                 self.grid.cells.along_x(),
                 self.grid.cells.along_x().to_string(),

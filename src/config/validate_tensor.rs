@@ -99,27 +99,17 @@ impl Scenario {
             }
             _ => {}
         }
-        let extruded = matches!(
-            self.problem.kind,
-            ProblemKind::VibratingBar | ProblemKind::ColumnCompaction
-        );
-        let cells = self
-            .grid
-            .cells
-            .per_axis(dim, extruded.then_some(1))
-            .ok_or_else(|| {
-                let n = match &self.grid.cells {
-                    Cells::PerAxis(c) => c.len(),
-                    Cells::Uniform(_) => 1,
-                };
-                Error::invalid(
-                    "grid.cells",
-                    format!("{:?}", self.grid.cells),
-                    format!(
-                        "{n} entries, problem.dim = {dim} needs {dim} (or one integer for all)"
-                    ),
-                )
-            })?;
+        let cells = self.cells_per_axis().ok_or_else(|| {
+            let n = match &self.grid.cells {
+                Cells::PerAxis(c) => c.len(),
+                Cells::Uniform(_) => 1,
+            };
+            Error::invalid(
+                "grid.cells",
+                format!("{:?}", self.grid.cells),
+                format!("{n} entries, problem.dim = {dim} needs {dim} (or one integer for all)"),
+            )
+        })?;
         if let Some(pos) = cells.iter().position(|&n| n == 0) {
             return Err(Error::invalid(
                 "grid.cells",
@@ -151,10 +141,7 @@ impl Scenario {
                 ),
             ));
         }
-        let total = cells
-            .iter()
-            .try_fold(per_cell, |acc, &n| acc.checked_mul(n));
-        if total.is_none_or(|n| n > MAX_PARTICLES) {
+        if self.particle_count().is_none_or(|n| n > MAX_PARTICLES) {
             let cell_count = cells.iter().fold(1_usize, |acc, &n| acc.saturating_mul(n));
             return Err(super::validate::too_many_particles(
                 cell_count,
