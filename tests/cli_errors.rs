@@ -705,7 +705,7 @@ fn expect_success(scenario: &str, sets: &[&str]) {
 #[test]
 fn a_run_with_errors_above_100_percent_warns_on_stderr_and_in_the_summary() {
     // Plain MPM on the manufactured-solution bar: relative errors of about 60 (u) and 270
-    // (stress) and a growing energy.
+    // (stress).
     let dir = tempdir();
     let out = dir.path().join("out");
     let o = run(

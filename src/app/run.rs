@@ -227,7 +227,7 @@ fn write_outputs(
         errors
     });
     let (basis, reconstruction) = simulation.stepper.method_names();
-    let warnings = crate::app::warnings::run_warnings(errors.as_ref(), &simulation.history);
+    let warnings = crate::app::warnings::run_warnings(errors.as_ref());
     let (status, failed_step) = Error::run_outcome(failure, simulation.steps_done);
     let summary = Summary {
         scenario: name.to_string(),

@@ -496,7 +496,7 @@ fn write_outputs<const D: usize>(
         }
         errors
     });
-    let warnings = crate::app::warnings::run_warnings(errors.as_ref(), &simulation.history);
+    let warnings = crate::app::warnings::run_warnings(errors.as_ref());
     let (status, failed_step) = Error::run_outcome(failure, simulation.steps_done);
     let summary = Summary {
         scenario: name.to_string(),

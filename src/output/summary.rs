@@ -76,8 +76,8 @@ pub struct Summary {
     /// Cell fits of the reconstruction that needed a remedy (SPEC §4.1), summed over the
     /// run; all zero for the direct mapping.
     pub reconstruction_remedies: crate::mapping::RemedyCounts,
-    /// Why the results of a completed run should not be trusted (errors above 100 %, the
-    /// energy growing several-fold); empty when there is nothing to report.
+    /// Why the results of a completed run should not be trusted (relative errors above
+    /// 100 %); empty when there is nothing to report.
     pub warnings: Vec<String>,
     /// The resolved scenario (file + `--set` overrides + defaults).
     pub config: Scenario,
