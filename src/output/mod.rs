@@ -3,6 +3,7 @@
 
 pub mod atomic;
 pub mod csv;
+pub mod legend;
 pub mod plot;
 pub mod run_dir;
 pub mod scatter;

@@ -1,6 +1,6 @@
 //! SVG plots (plotters, SVG backend only: no system font libraries).
 //!
-//! Two kinds of figure are produced, both 800 × 560 px SVG files written atomically
+//! Three kinds of figure are produced, SVG files of 800 × 560 px plus the legend panel, written atomically
 //! (temporary file + rename, [`write_atomic`]):
 //!
 //! * [`profile_plot`]: linear axes, e.g. a stress or velocity profile against position, with
@@ -10,8 +10,9 @@
 //! * [`semilogy_plot`]: linear `x`, logarithmic `y`, e.g. the error at every particle
 //!   against its position (errors of 1e-3 and 1e-10 both readable).
 //!
-//! Each figure has a title, axis labels, a grid, one colour per series from a fixed palette,
-//! and a legend with the series labels placed in the corner that hides the fewest points.
+//! Each figure has a title, axis labels, a grid, one colour (and, past ten series, marker
+//! shape) per series, and a legend in a panel right of the plotting area, so that it never
+//! covers data ([`crate::output::legend`]; the figure widens by the panel's width).
 //! Series longer than a few thousand points are thinned to what the figure can show
 //! ([`crate::output::thinning`]), so the file size does not grow with the particle count.
 //! Text is written as SVG `<text>` elements and rendered by the viewer, so no font file or
@@ -24,15 +25,14 @@
 
 use crate::error::{Error, Result};
 use crate::output::atomic::write_atomic;
+use crate::output::legend::{draw_legend, panel_width, LegendEntry, Marker, Sample};
 use crate::output::thinning::{thin_line, thin_points, MAX_MARKS};
 use plotters::backend::SVGBackend;
-use plotters::chart::{ChartBuilder, SeriesLabelPosition};
+use plotters::chart::ChartBuilder;
 use plotters::coord::combinators::{BindKeyPoints, IntoLogRange};
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::drawing::{DrawingAreaErrorKind, IntoDrawingArea};
-use plotters::element::{
-    Circle, Cross, EmptyElement, PathElement, Rectangle, Text, TriangleMarker,
-};
+use plotters::element::{Circle, Cross, EmptyElement, Rectangle, Text, TriangleMarker};
 use plotters::series::LineSeries;
 use plotters::style::{Color, IntoFont, RGBColor, BLACK, WHITE};
 use std::path::Path;
@@ -62,14 +62,6 @@ const REFERENCE_WIDTH: u32 = 1;
 
 /// Marker shapes; series `k` (counting the non-reference series) gets colour
 /// `k % 10` and shape `k / 10 % 4`, so that up to 40 series of a plot all look different.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Marker {
-    Circle,
-    Square,
-    Triangle,
-    Cross,
-}
-
 const MARKERS: [Marker; 4] = [
     Marker::Circle,
     Marker::Square,
@@ -140,13 +132,11 @@ pub fn profile_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
         .ok_or_else(|| Error::write(path, "y data range too wide to plot"))?;
     let mut data = data;
     thin(&mut data, x_range, y_range, |v| v, |v| v);
-    let legend = legend_corner(&data, x_range, y_range, |v| v, |v| v);
     let svg = render(
         axes,
         &data,
         (x_range.0..x_range.1, TickFormat::new(x_range, false)),
         (y_range.0..y_range.1, TickFormat::new(y_range, false)),
-        legend,
     )
     .map_err(|e| Error::write(path, e))?;
     write_atomic(path, svg.as_bytes())
@@ -180,7 +170,6 @@ pub fn loglog_plot_ticked(
         .ok_or_else(|| Error::write(path, "y data spans too many decades to plot"))?;
     let mut data = data;
     thin(&mut data, x_range, y_range, f64::ln, f64::ln);
-    let legend = legend_corner(&data, x_range, y_range, f64::ln, f64::ln);
     let (mut x_bold, mut x_light) = log_ticks(x_range);
     if !x_ticks.is_empty() {
         // Only the given ticks and the powers of ten are labelled.
@@ -216,7 +205,6 @@ pub fn loglog_plot_ticked(
                 .with_light_points(y_light),
             TickFormat::new(y_range, true),
         ),
-        legend,
     )
     .map_err(|e| Error::write(path, e))?;
     write_atomic(path, svg.as_bytes())
@@ -234,7 +222,6 @@ pub fn semilogy_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> 
         .ok_or_else(|| Error::write(path, "y data spans too many decades to plot"))?;
     let mut data = data;
     thin(&mut data, x_range, y_range, |v| v, f64::ln);
-    let legend = legend_corner(&data, x_range, y_range, |v| v, f64::ln);
     let (y_bold, y_light) = log_ticks(y_range);
     let svg = render(
         axes,
@@ -247,7 +234,6 @@ pub fn semilogy_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> 
                 .with_light_points(y_light),
             TickFormat::new(y_range, true),
         ),
-        legend,
     )
     .map_err(|e| Error::write(path, e))?;
     write_atomic(path, svg.as_bytes())
@@ -451,83 +437,6 @@ fn log_ticks((lo, hi): (f64, f64)) -> (Vec<f64>, Vec<f64>) {
     (bold, light)
 }
 
-/// Where to put the legend: the candidate box (four corners, then top and bottom centre)
-/// over which the fewest data points and line samples fall; earlier candidates win ties.
-/// `scale_x` and `scale_y` map data to the axis scales (identity or ln).
-fn legend_corner(
-    data: &[Prepared],
-    (x0, x1): (f64, f64),
-    (y0, y1): (f64, f64),
-    scale_x: impl Fn(f64) -> f64,
-    scale_y: impl Fn(f64) -> f64,
-) -> SeriesLabelPosition {
-    use SeriesLabelPosition::{
-        LowerLeft, LowerMiddle, LowerRight, UpperLeft, UpperMiddle, UpperRight,
-    };
-    // Legend size as a fraction of the plotting area (about 690 × 445 px), from the label
-    // font (about 6.4 px per character, 14 px per line) and plotters' legend padding.
-    let labelled = data
-        .iter()
-        .filter(|s| !s.label.is_empty() && s.style != Style::Guide);
-    let chars = labelled
-        .clone()
-        .map(|s| s.label.chars().count())
-        .max()
-        .unwrap_or(0);
-    let lines = labelled.count();
-    let fw = ((6.4 * chars as f64 + 60.0) / 690.0).min(1.0);
-    let fh = ((14.0 * lines as f64 + 25.0) / 445.0).min(1.0);
-    let (sx0, sx1, sy0, sy1) = (scale_x(x0), scale_x(x1), scale_y(y0), scale_y(y1));
-    let normalise = |(x, y): (f64, f64)| {
-        (
-            (scale_x(x) - sx0) / (sx1 - sx0),
-            (scale_y(y) - sy0) / (sy1 - sy0),
-        )
-    };
-    let (left, centre, right) = ((0.0, fw), (0.5 - 0.5 * fw, 0.5 + 0.5 * fw), (1.0 - fw, 1.0));
-    let (low, high) = ((0.0, fh), (1.0 - fh, 1.0));
-    let candidates = [
-        (UpperRight, right, high),
-        (UpperLeft, left, high),
-        (LowerRight, right, low),
-        (LowerLeft, left, low),
-        (UpperMiddle, centre, high),
-        (LowerMiddle, centre, low),
-    ];
-    let mut counts = [0usize; 6];
-    let mut count = |(u, v): (f64, f64)| {
-        for (n, (_, (u0, u1), (v0, v1))) in counts.iter_mut().zip(&candidates) {
-            *n += usize::from((*u0..=*u1).contains(&u) && (*v0..=*v1).contains(&v));
-        }
-    };
-    // Lines are sampled between their points so that a line crossing a box counts.
-    const SAMPLES: u32 = 8;
-    for series in data {
-        for run in &series.runs {
-            let mut previous: Option<(f64, f64)> = None;
-            for &p in run {
-                let (u, v) = normalise(p);
-                if let (
-                    Style::Line | Style::LinePoints | Style::Reference | Style::Guide,
-                    Some((pu, pv)),
-                ) = (series.style, previous)
-                {
-                    for i in 1..SAMPLES {
-                        let t = f64::from(i) / f64::from(SAMPLES);
-                        count((pu + t * (u - pu), pv + t * (v - pv)));
-                    }
-                }
-                count((u, v));
-                previous = Some((u, v));
-            }
-        }
-    }
-    let best = (0..candidates.len())
-        .min_by_key(|&i| counts[i])
-        .unwrap_or(0);
-    candidates[best].0.clone()
-}
-
 /// How the tick labels of one axis are written.
 #[derive(Clone, Copy, Debug)]
 struct TickFormat {
@@ -595,7 +504,6 @@ fn render<XS, YS>(
     data: &[Prepared],
     (x_spec, x_format): (XS, TickFormat),
     (y_spec, y_format): (YS, TickFormat),
-    legend: SeriesLabelPosition,
 ) -> std::result::Result<String, DrawingAreaErrorKind<std::io::Error>>
 where
     XS: AsRangedCoord<Value = f64>,
@@ -603,11 +511,45 @@ where
     XS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
     YS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
+    // Colours, markers and legend rows first: the legend's width sets the figure's.
+    let mut coloured = 0;
+    let looks: Vec<(RGBColor, Marker, u32)> = data
+        .iter()
+        .map(|series| match series.style {
+            Style::Reference => (RGBColor(40, 40, 40), Marker::Circle, REFERENCE_WIDTH),
+            Style::Guide => (RGBColor(150, 150, 150), Marker::Circle, REFERENCE_WIDTH),
+            _ => {
+                let k = coloured;
+                coloured += 1;
+                (
+                    PALETTE[k % PALETTE.len()],
+                    MARKERS[(k / PALETTE.len()) % MARKERS.len()],
+                    LINE_WIDTH,
+                )
+            }
+        })
+        .collect();
+    let entries: Vec<LegendEntry> = data
+        .iter()
+        .zip(&looks)
+        .filter(|(s, _)| !s.label.is_empty() && s.style != Style::Guide)
+        .map(|(s, &(colour, marker, width))| LegendEntry {
+            label: s.label.clone(),
+            colour,
+            sample: match s.style {
+                Style::Line | Style::Reference | Style::Guide => Sample::Line(width),
+                Style::Points | Style::LinePoints => Sample::Marker(marker),
+            },
+        })
+        .collect();
+    let legend_width = panel_width(&entries);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+        let root =
+            SVGBackend::with_string(&mut svg, (SIZE.0 + legend_width, SIZE.1)).into_drawing_area();
         root.fill(&WHITE)?;
-        let mut builder = ChartBuilder::on(&root);
+        let (plot_area, legend_area) = root.split_horizontally(SIZE.0);
+        let mut builder = ChartBuilder::on(&plot_area);
         builder
             .margin(15)
             .x_label_area_size(50)
@@ -630,21 +572,7 @@ where
             .bold_line_style(BLACK.mix(0.2))
             .draw()?;
 
-        let mut coloured = 0;
-        for series in data {
-            let (colour, marker, width) = if series.style == Style::Reference {
-                (RGBColor(40, 40, 40), Marker::Circle, REFERENCE_WIDTH)
-            } else if series.style == Style::Guide {
-                (RGBColor(150, 150, 150), Marker::Circle, REFERENCE_WIDTH)
-            } else {
-                let k = coloured;
-                coloured += 1;
-                (
-                    PALETTE[k % PALETTE.len()],
-                    MARKERS[(k / PALETTE.len()) % MARKERS.len()],
-                    LINE_WIDTH,
-                )
-            };
+        for (series, &(colour, marker, width)) in data.iter().zip(&looks) {
             let line = matches!(
                 series.style,
                 Style::Line | Style::LinePoints | Style::Reference | Style::Guide
@@ -688,52 +616,11 @@ where
                             ),
                     ))?;
                 }
-                continue;
-            }
-            if series.label.is_empty() {
-                continue;
-            }
-            // An empty series that only carries the legend entry.
-            let anno = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?;
-            anno.label(series.label.as_str());
-            let r = POINT_RADIUS;
-            match (series.style, marker) {
-                (Style::Line | Style::Reference | Style::Guide, _) => {
-                    anno.legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(width))
-                    });
-                }
-                (_, Marker::Circle) => {
-                    anno.legend(move |(x, y)| Circle::new((x + 10, y), r, colour.filled()));
-                }
-                (_, Marker::Square) => {
-                    anno.legend(move |(x, y)| {
-                        Rectangle::new([(x + 10 - r, y - r), (x + 10 + r, y + r)], colour.filled())
-                    });
-                }
-                (_, Marker::Triangle) => {
-                    anno.legend(move |(x, y)| {
-                        TriangleMarker::new((x + 10, y), r + 1, colour.filled())
-                    });
-                }
-                (_, Marker::Cross) => {
-                    anno.legend(move |(x, y)| Cross::new((x + 10, y), r, colour.stroke_width(2)));
-                }
             }
         }
-
-        if data
-            .iter()
-            .any(|s| !s.label.is_empty() && s.style != Style::Guide)
-        {
-            chart
-                .configure_series_labels()
-                .position(legend)
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14).into_font())
-                .draw()?;
-        }
+        // The legend box starts level with the top of the plotting area.
+        let top = chart.plotting_area().get_pixel_range().1.start;
+        draw_legend(&legend_area, &entries, top)?;
         root.present()?;
     }
     Ok(svg)
