@@ -3,7 +3,7 @@
 //! `study.csv` and `convergence.svg`, and each run's outputs into `cells_<N>/`.
 
 use crate::app::{run, RunOptions};
-use crate::config::Scenario;
+use crate::config::{KeySource, Scenario};
 use crate::error::{Error, Result};
 use crate::numerics::norms::observed_order;
 use crate::output::plot::{loglog_plot_ticked, Axes, Series, Style};
@@ -20,6 +20,21 @@ pub struct StudyRow {
     pub n_particles: usize,
     /// `(field, rms, rel_l2, observed rms order vs the previous row)`.
     pub fields: Vec<(Field, f64, f64, f64)>,
+    /// The run's warnings (its `summary.json`'s `warnings`).
+    pub warnings: Vec<String>,
+}
+
+/// Warnings about the study itself: a `grid.cells` given with `--set`, which `--cells`
+/// replaces (one given in the file is the scenario's own resolution and replaced silently).
+/// Each run's `summary.json` repeats them.
+pub fn study_warnings(scenario: &Scenario) -> Vec<String> {
+    match scenario.given_keys.source("grid.cells") {
+        Some(KeySource::Set) => vec![format!(
+            "grid.cells = {} given with --set is ignored: study --cells sets the cell counts",
+            scenario.given_keys.value("grid.cells").unwrap_or("(given)")
+        )],
+        _ => Vec::new(),
+    }
 }
 
 /// Run the study; returns one row per cell count (in the given order). If a run fails,
@@ -43,10 +58,11 @@ pub fn study(
     for &n in cells {
         let mut resolved = scenario.clone();
         resolved.grid.cells = n.into();
-        let run_options = RunOptions {
+        let mut run_options = RunOptions {
             out_dir: options.out_dir.join(format!("cells_{n}")),
             ..options.clone()
         };
+        run_options.warnings.extend(study_warnings(scenario));
         let summary = match run(&resolved, name, &run_options, &mut |step, total| {
             progress(n, step, total)
         }) {
@@ -59,6 +75,7 @@ pub fn study(
                 return Err(failure);
             }
         };
+        let warnings = summary.warnings;
         let errors = summary.errors.unwrap_or_default();
         let h = if resolved.problem.dim > 1 {
             crate::problems::tensor::cell_size_x(&resolved)?
@@ -88,6 +105,7 @@ pub fn study(
             h,
             n_particles: summary.n_particles,
             fields,
+            warnings,
         });
     }
     write_study_csv(&options.out_dir.join("study.csv"), &rows)?;

@@ -232,6 +232,7 @@ impl Common {
             threads: self.threads,
             force: self.force,
             stop: Some(&interrupt::STOP),
+            warnings: Vec::new(),
         }
     }
 }
@@ -515,6 +516,17 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             });
             progress.finish();
             let (rows, dir) = result?;
+            // The scenario's own warnings once, then each run's further ones.
+            let mut shown = app::study::study_warnings(&scenario);
+            shown.extend(scenario.ignored_key_warnings());
+            for warning in &shown {
+                eprintln!("warning: {warning}");
+            }
+            for row in &rows {
+                for warning in row.warnings.iter().filter(|w| !shown.contains(w)) {
+                    eprintln!("warning: {} cells: {warning}", row.cells);
+                }
+            }
             if !common.quiet {
                 print!("{}", app::study::format_table(&rows));
                 println!("wrote {}", dir.join("study.csv").display());

@@ -7,13 +7,16 @@
 //! ranges (positive sizes, moduli, time step) and names the key and value it rejects.
 //!
 //! Files: `schema.rs` (the typed sections and their defaults), `parse.rs` (text, overrides,
-//! schema errors), `validate.rs` (ranges and combinations, [`Scenario::validate`]).
+//! schema errors), `validate.rs` (ranges and combinations, [`Scenario::validate`]),
+//! `ignored.rs` (warnings for given keys that other choices make meaningless).
 
+mod ignored;
 mod parse;
 mod schema;
 mod validate;
 mod validate_tensor;
 
+pub use ignored::{GivenKeys, KeySource};
 pub use parse::{apply_override, display_float, from_str, load, require_positive};
 pub use schema::*;
 pub use validate_tensor::integer_root;

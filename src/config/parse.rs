@@ -1,7 +1,7 @@
 //! Scenario text → `toml::Table` → `--set` overrides → typed [`Scenario`], with schema
 //! errors that name the full dotted key.
 
-use super::Scenario;
+use super::{GivenKeys, KeySource, Scenario};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -28,11 +28,17 @@ pub fn from_str(text: &str, origin: &str, overrides: &[String]) -> Result<Scenar
             message: one_line(e.message()),
         }
     })?;
+    let mut given_keys = GivenKeys::default();
+    given_keys.add_table(&table, KeySource::File);
     for assignment in overrides {
         apply_override(&mut table, assignment)?;
+        let mut single = toml::Table::new();
+        apply_override(&mut single, assignment)?;
+        given_keys.add_table(&single, KeySource::Set);
     }
-    let scenario: Scenario = serde_path_to_error::deserialize(toml::Value::Table(table))
+    let mut scenario: Scenario = serde_path_to_error::deserialize(toml::Value::Table(table))
         .map_err(|e| schema_error(origin, overrides, e))?;
+    scenario.given_keys = given_keys;
     Ok(scenario)
 }
 

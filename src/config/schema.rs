@@ -21,6 +21,10 @@ pub struct Scenario {
     /// Boundary conditions per grid face (2D / 3D only; DESIGN §7).
     #[serde(default, skip_serializing_if = "BoundaryConfig::is_empty")]
     pub boundary: BoundaryConfig,
+    /// The keys written in the file or given with `--set` (not serialised): the warnings
+    /// about keys other choices make meaningless look only at these.
+    #[serde(skip)]
+    pub given_keys: super::GivenKeys,
 }
 
 /// The benchmark problems (SPEC §6).
