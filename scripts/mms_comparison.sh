@@ -15,11 +15,12 @@ cells=${CELLS:-8,16,32,64,128}
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 bin=target/release/tlsmpm
+SECONDS=0
 
 # label | scenario overrides
 methods=(
-  "MPM|"
-  "CPDI|method.basis=cpdi"
+  "MPM|method.reconstruction=none"
+  "CPDI|method.basis=cpdi method.reconstruction=none"
   "MLS|method.reconstruction=mls"
   "IMLS|method.reconstruction=imls"
   "IMLS-CONSISTENT|method.reconstruction=imls method.mass=consistent"
@@ -42,7 +43,7 @@ for entry in "${methods[@]}"; do
   for kv in ${entry#*|}; do sets+=(--set "$kv"); done
   dir="$out/$label"
   echo "== $label (${entry#*|})" >&2
-  "$bin" study scenarios/mms_bar.toml --cells "$cells" --quiet --out "$dir" "${sets[@]}" >/dev/null
+  "$bin" study scenarios/mms_bar.toml --cells "$cells" --quiet --force --out "$dir" "${sets[@]}" >/dev/null
   dirs+=("$dir")
   labels+=(--label "$label")
 done
@@ -72,3 +73,4 @@ done
     ' "$dir/study.csv"
   done
 } | tee "$out/orders.md"
+echo "studies, overlays and table: ${SECONDS} s after the build" >&2

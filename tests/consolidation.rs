@@ -204,6 +204,7 @@ fn two_phase_outputs_carry_the_liquid_columns() {
         threads: Some(1),
         force: false,
         stop: None,
+        warnings: Vec::new(),
     };
     let summary = tlsmpm::app::run(&s, "consolidation", &options, &mut |_, _| {}).expect("run");
     let errors = summary.errors.expect("errors against Terzaghi");

@@ -168,6 +168,7 @@ fn a_run_writes_vtu_snapshots_that_read_back_and_a_pvd_listing_them() {
         threads: Some(2),
         force: false,
         stop: None,
+        warnings: Vec::new(),
     };
     let summary = tlsmpm::app::run(&s, "vtk", &options, &mut |_, _| {}).expect("run");
     let pvd = std::fs::read_to_string(dir.path().join("particles.pvd")).expect("pvd");

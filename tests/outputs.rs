@@ -15,6 +15,7 @@ fn run_writes_the_stable_files_and_evenly_spread_snapshots() {
         threads: Some(1),
         force: false,
         stop: None,
+        warnings: Vec::new(),
     };
     let mut calls = 0;
     let summary = app::run(&s, "bar", &options, &mut |_, _| calls += 1).expect("run");

@@ -24,6 +24,7 @@ fn run(prefix: &str, overrides: &[&str]) -> tempfile::TempDir {
         threads: Some(1),
         force: false,
         stop: None,
+        warnings: Vec::new(),
     };
     app::run(&s, "bar", &options, &mut |_, _| {}).expect("run");
     dir

@@ -19,7 +19,7 @@ pub const BUILTIN: &[Builtin] = &[
     Builtin {
         name: "vibrating_bar_large",
         description:
-            "vibrating bar, large deformation (Wobbes et al. 2019): Hill law, 20 cells, 8 PPC, grid crossing",
+            "vibrating bar, large deformation (Wobbes et al. 2019): Hill law, 20 cells, 8 PPC, grid crossing, ULFEM reference",
         toml: include_str!("../../scenarios/vibrating_bar_large.toml"),
     },
     Builtin {
@@ -42,7 +42,7 @@ pub const BUILTIN: &[Builtin] = &[
     Builtin {
         name: "mms_bar",
         description: "manufactured-solution bar (Tran et al. 2019): neo-Hookean, A = 0.1 m, body force \
-                      at the particles, 32 cells, 3 PPC",
+                      at the particles, MPM-IMLS, 32 cells, 3 PPC",
         toml: include_str!("../../scenarios/mms_bar.toml"),
     },
     Builtin {

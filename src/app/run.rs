@@ -8,6 +8,7 @@
 //! `"interrupted"`.
 
 use crate::app::build_simulation;
+use crate::app::warnings::{run_warnings, FieldError};
 use crate::config::{Scenario, VelocityReference};
 use crate::error::{Error, Result};
 use crate::numerics::norms::{relative_l2, rms};
@@ -34,6 +35,9 @@ pub struct RunOptions {
     /// Checked after every step: once it is `true` the run stops with
     /// [`Error::Interrupted`], after writing the state reached (status `"interrupted"`).
     pub stop: Option<&'static AtomicBool>,
+    /// Warnings found by the caller (a study's replaced keys), reported in the summary
+    /// with the run's own.
+    pub warnings: Vec<String>,
 }
 
 impl RunOptions {
@@ -121,6 +125,7 @@ pub fn run(
         pool.current_num_threads(),
         wall_seconds,
         outcome.as_ref().err(),
+        &options.warnings,
     )?;
     outcome.map(|()| summary)
 }
@@ -195,6 +200,36 @@ fn as_refs(columns: &[(Field, Vec<f64>)]) -> Vec<ExactColumn<'_>> {
         .collect()
 }
 
+/// The final error of `field` and the size of its exact solution over the run (the
+/// largest L2 norm at the end and at the problem's peak times), for [`run_warnings`].
+fn field_error(
+    problem: &dyn Problem,
+    field: Field,
+    numerical: &[f64],
+    exact: &[f64],
+    x0: &[f64],
+    end: f64,
+) -> FieldError {
+    let l2 = |values: &[f64]| values.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let error_l2 = numerical
+        .iter()
+        .zip(exact)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    let peaks = problem.solution_peak_times(end);
+    let size_l2 = peaks
+        .iter()
+        .map(|&t| l2(&problem.exact_profile(field, x0, t)))
+        .fold(l2(exact), f64::max);
+    FieldError {
+        field: field.name().into(),
+        error_l2,
+        size_l2,
+        at_end_only: peaks.is_empty(),
+    }
+}
+
 /// The particle values of `field` (NaN when the particles lack it).
 fn numerical(particles: &Particles, field: Field) -> std::borrow::Cow<'_, [f64]> {
     field
@@ -212,9 +247,11 @@ fn write_outputs(
     threads: usize,
     wall_seconds: f64,
     failure: Option<&Error>,
+    extra_warnings: &[String],
 ) -> Result<Summary> {
     let particles = &simulation.particles;
     let columns = exact_columns(problem, simulation, scenario);
+    let mut field_errors = Vec::new();
     let errors = (!columns.is_empty()).then(|| {
         let mut errors = Errors::default();
         for (field, exact) in &columns {
@@ -223,11 +260,21 @@ fn write_outputs(
             errors
                 .rel_l2
                 .insert(field.name().into(), relative_l2(&num, exact));
+            field_errors.push(field_error(
+                problem,
+                *field,
+                &num,
+                exact,
+                &particles.x0,
+                simulation.time(),
+            ));
         }
         errors
     });
     let (basis, reconstruction) = simulation.stepper.method_names();
-    let warnings = crate::app::warnings::run_warnings(errors.as_ref());
+    let mut warnings = scenario.ignored_key_warnings();
+    warnings.extend(extra_warnings.iter().cloned());
+    warnings.extend(run_warnings(&field_errors));
     let (status, failed_step) = Error::run_outcome(failure, simulation.steps_done);
     let summary = Summary {
         scenario: name.to_string(),

@@ -372,6 +372,7 @@ fn run_dim<const D: usize>(
             pool.current_num_threads(),
             wall_seconds,
             outcome.as_ref().err(),
+            &options.warnings,
         )
     })?;
     outcome.map(|()| summary)
@@ -484,19 +485,30 @@ fn write_outputs<const D: usize>(
     threads: usize,
     wall_seconds: f64,
     failure: Option<&Error>,
+    extra_warnings: &[String],
 ) -> Result<Summary> {
     let p = &simulation.particles;
     let columns = exact_columns(problem, simulation, scenario);
+    let mut field_errors = Vec::new();
     let errors = (!columns.is_empty()).then(|| {
         let mut errors = Errors::default();
         for (field, exact) in &columns {
             let (rms, rel) = vector_errors(&numerical(p, *field), exact, *field == Field::Stress);
             errors.rms.insert(field.name().into(), rms);
             errors.rel_l2.insert(field.name().into(), rel);
+            // Judged against the exact field at the end (`rel_l2`).
+            field_errors.push(crate::app::warnings::FieldError {
+                field: field.name().into(),
+                error_l2: rel,
+                size_l2: 1.0,
+                at_end_only: true,
+            });
         }
         errors
     });
-    let warnings = crate::app::warnings::run_warnings(errors.as_ref());
+    let mut warnings = scenario.ignored_key_warnings();
+    warnings.extend(extra_warnings.iter().cloned());
+    warnings.extend(crate::app::warnings::run_warnings(&field_errors));
     let (status, failed_step) = Error::run_outcome(failure, simulation.steps_done);
     let summary = Summary {
         scenario: name.to_string(),

@@ -156,6 +156,17 @@ impl Problem for MmsBar {
         self.amplitude * self.omega() * (self.wavenumber() * x0).sin()
     }
 
+    /// The quarter periods `t = j pi / (2 omega)`, `j = 0..3`: `v` peaks at even `j`, `u`
+    /// and `F - 1` (so `sigma`) at odd `j` (with opposite signs, so both stretch and
+    /// compression), up to `end`.
+    fn solution_peak_times(&self, end: f64) -> Vec<f64> {
+        let quarter = PI / (2.0 * self.omega());
+        (0..4)
+            .map(|j| j as f64 * quarter)
+            .filter(|&t| t <= end)
+            .collect()
+    }
+
     fn plot_axis(&self) -> PlotAxis {
         PlotAxis::Initial
     }

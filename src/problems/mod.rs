@@ -173,6 +173,15 @@ pub trait Problem: Send + Sync {
         let _ = x0;
         0.0
     }
+    /// Times up to `end` at which the exact fields are largest, beside `end` itself: the
+    /// size of the solution against which a run's errors are judged (an error at the end of
+    /// a period of a vibration, where the exact field passes through zero, is not large
+    /// because the field is small there). Default: the start time (decaying and loaded
+    /// problems); empty when the exact values are only known at the end (a reference).
+    fn solution_peak_times(&self, end: f64) -> Vec<f64> {
+        let _ = end;
+        vec![self.start_time()]
+    }
     /// Whether the "exact" velocity is itself time-stepped like the particles' (a
     /// reference solution): then it is compared at `t`, never at `t - dt/2`.
     fn velocity_is_time_stepped(&self) -> bool {

@@ -90,6 +90,10 @@ impl Problem for UlfemReference {
     fn velocity_is_time_stepped(&self) -> bool {
         true
     }
+    fn solution_peak_times(&self, _end: f64) -> Vec<f64> {
+        // The reference is stepped to the output time only.
+        Vec::new()
+    }
     fn reference_label(&self) -> &'static str {
         "ULFEM"
     }

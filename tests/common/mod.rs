@@ -23,6 +23,7 @@ fn options(dir: &tempfile::TempDir, threads: Option<usize>) -> RunOptions {
         threads,
         force: false,
         stop: None,
+        warnings: Vec::new(),
     }
 }
 
