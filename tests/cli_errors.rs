@@ -924,21 +924,22 @@ fn keys_a_choice_makes_meaningless_are_warned_about_not_refused() {
     assert!(!o.stderr.contains("warning"), "{}", o.stderr);
 }
 
+/// `tlsmpm study BAR --quiet --cells 4,8 [--set SET] --out OUT`.
+fn study_bar(out: &Path, set: Option<&str>) -> Outcome {
+    let mut args = vec!["study", BAR, "--quiet", "--cells", "4,8"];
+    if let Some(set) = set {
+        args.extend(["--set", set]);
+    }
+    let out = out.display().to_string();
+    args.extend(["--out", out.as_str()]);
+    tlsmpm(&args)
+}
+
 #[test]
 fn a_study_names_the_grid_cells_its_cell_counts_replace() {
     let dir = tempdir();
     let out = dir.path().join("study");
-    let o = tlsmpm(&[
-        "study",
-        BAR,
-        "--quiet",
-        "--cells",
-        "4,8",
-        "--set",
-        "grid.cells=80",
-        "--out",
-        out.display().to_string().as_str(),
-    ]);
+    let o = study_bar(&out, Some("grid.cells=80"));
     assert_eq!(o.code, 0, "stderr: {}", o.stderr);
     let needle = "grid.cells = 80 given with --set is ignored: study --cells";
     assert_eq!(o.stderr.matches(needle).count(), 1, "{}", o.stderr);
@@ -946,15 +947,7 @@ fn a_study_names_the_grid_cells_its_cell_counts_replace() {
     let summary =
         std::fs::read_to_string(out.join("cells_8").join("summary.json")).expect("summary.json");
     assert!(summary.contains(needle), "{summary}");
-    let o = tlsmpm(&[
-        "study",
-        BAR,
-        "--quiet",
-        "--cells",
-        "4,8",
-        "--out",
-        dir.path().join("plain").display().to_string().as_str(),
-    ]);
+    let o = study_bar(&dir.path().join("plain"), None);
     assert_eq!(o.code, 0, "stderr: {}", o.stderr);
     assert!(!o.stderr.contains("warning"), "{}", o.stderr);
 }

@@ -96,111 +96,81 @@ impl Scenario {
         let multigrid = matches!(solver_kind, SolverKind::Pmg | SolverKind::PmgCg);
         let kind = self.problem.kind;
         let problem = format!("problem.kind = {}", toml_value(&kind));
-        // (key, ignored, why: the choice that makes it meaningless).
-        let rules: Vec<(&str, bool, String)> = vec![
+        let lumped = "no consistent mass is solved (method.mass and method.acceleration_mass \
+                      are \"lumped\")"
+            .to_string();
+        let only_tls = format!("only used by method.reconstruction = \"tls\" ({reconstruction})");
+        let only_multigrid = format!(
+            "only used by the p-multigrid solvers (solver.kind = \"{}\"{})",
+            solver_kind.name(),
+            if consistent {
+                ""
+            } else {
+                ", and no consistent mass is solved"
+            }
+        );
+        let only_problem =
+            |name: &str| format!("only used by problem.kind = \"{name}\" ({problem})");
+        // (keys, ignored, why: the choice that makes them meaningless).
+        let rules: [(&[&str], bool, String); 9] = [
             (
-                "method.order",
+                &["method.order"],
                 method.basis != BasisKind::Bspline,
                 format!("only method.basis = \"bspline\" has an order ({basis})"),
             ),
             (
-                "method.node_integrals",
+                &["method.node_integrals"],
                 method.basis != BasisKind::Ddmpm,
                 format!("only used by method.basis = \"ddmpm\" ({basis})"),
             ),
             (
-                "method.gauss_points",
+                &["method.gauss_points"],
                 method.reconstruction == ReconstructionKind::None,
                 format!("only used by a reconstruction ({reconstruction})"),
             ),
             (
-                "method.degenerate_cells",
+                &["method.degenerate_cells", "method.cell_totals"],
                 method.reconstruction != ReconstructionKind::Tls,
-                format!("only used by method.reconstruction = \"tls\" ({reconstruction})"),
+                only_tls,
             ),
+            (&["solver.kind", "solver.tolerance"], !consistent, lumped),
             (
-                "method.cell_totals",
-                method.reconstruction != ReconstructionKind::Tls,
-                format!("only used by method.reconstruction = \"tls\" ({reconstruction})"),
-            ),
-            (
-                "solver.kind",
-                !consistent,
-                "no consistent mass is solved (method.mass and method.acceleration_mass \
-                 are \"lumped\")"
-                    .into(),
-            ),
-            (
-                "solver.tolerance",
-                !consistent,
-                "no consistent mass is solved (method.mass and method.acceleration_mass \
-                 are \"lumped\")"
-                    .into(),
-            ),
-            (
-                "solver.smoother",
+                &["solver.smoother", "solver.pre_smooth", "solver.post_smooth"],
                 !consistent || !multigrid,
-                format!(
-                    "only used by the p-multigrid solvers (solver.kind = \"{}\"{})",
-                    solver_kind.name(),
-                    if consistent {
-                        ""
-                    } else {
-                        ", and no consistent mass is solved"
-                    }
-                ),
+                only_multigrid,
             ),
             (
-                "solver.pre_smooth",
-                !consistent || !multigrid,
-                format!(
-                    "only used by the p-multigrid solvers (solver.kind = \"{}\")",
-                    solver_kind.name()
-                ),
-            ),
-            (
-                "solver.post_smooth",
-                !consistent || !multigrid,
-                format!(
-                    "only used by the p-multigrid solvers (solver.kind = \"{}\")",
-                    solver_kind.name()
-                ),
-            ),
-            (
-                "problem.v0",
+                &["problem.v0"],
                 kind != ProblemKind::VibratingBar,
-                format!("only used by problem.kind = \"vibrating_bar\" ({problem})"),
+                only_problem("vibrating_bar"),
             ),
             (
-                "problem.gravity",
+                &["problem.gravity"],
                 kind != ProblemKind::ColumnCompaction,
-                format!("only used by problem.kind = \"column_compaction\" ({problem})"),
+                only_problem("column_compaction"),
             ),
             (
-                "problem.load",
+                &["problem.load", "problem.start_time"],
                 kind != ProblemKind::Consolidation,
-                format!("only used by problem.kind = \"consolidation\" ({problem})"),
-            ),
-            (
-                "problem.start_time",
-                kind != ProblemKind::Consolidation,
-                format!("only used by problem.kind = \"consolidation\" ({problem})"),
-            ),
-            (
-                "problem.reference_dofs",
-                self.problem.reference != ReferenceKind::Ulfem,
-                format!(
-                    "only used by problem.reference = \"ulfem\" (problem.reference = {})",
-                    toml_value(&self.problem.reference)
-                ),
+                only_problem("consolidation"),
             ),
         ];
+        let reference = (
+            &["problem.reference_dofs"][..],
+            self.problem.reference != ReferenceKind::Ulfem,
+            format!(
+                "only used by problem.reference = \"ulfem\" (problem.reference = {})",
+                toml_value(&self.problem.reference)
+            ),
+        );
         rules
-            .into_iter()
-            .filter(|(key, ignored, _)| *ignored && self.given_keys.contains(key))
-            .map(|(key, _, why)| {
-                let value = self.given_keys.value(key).unwrap_or("(given)");
-                format!("{key} = {value} is ignored: {why}")
+            .iter()
+            .chain(std::iter::once(&reference))
+            .filter(|(_, ignored, _)| *ignored)
+            .flat_map(|(keys, _, why)| keys.iter().map(move |key| (*key, why)))
+            .filter_map(|(key, why)| {
+                let value = self.given_keys.value(key)?;
+                Some(format!("{key} = {value} is ignored: {why}"))
             })
             .collect()
     }
@@ -209,18 +179,7 @@ impl Scenario {
 #[cfg(test)]
 mod tests {
     use crate::config::from_str;
-
-    const BAR: &str = r#"
-[problem]
-kind = "vibrating_bar"
-[grid]
-cells = 20
-[particles]
-per_cell = 2
-[time]
-dt = 1e-7
-end = 1e-6
-"#;
+    use crate::config::tests::BAR;
 
     fn warnings(sets: &[&str]) -> Vec<String> {
         let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

@@ -33,11 +33,12 @@ pub fn toml_value<T: serde::Serialize>(value: &T) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::error::Error;
 
-    const BAR: &str = r#"
+    /// A small vibrating-bar scenario (also used by the sibling modules' tests).
+    pub(crate) const BAR: &str = r#"
 [problem]
 kind = "vibrating_bar"
 [grid]
