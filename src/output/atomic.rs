@@ -12,10 +12,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Write `path` atomically through a 1 MiB buffered writer: `write(writer)` produces the
 /// content (in pieces, without building the whole file in memory), then the temporary file
-/// is synced and renamed into place.
+/// is renamed into place. Atomic for readers (they see the old file or the whole new one);
+/// the file is not forced to disk (`fsync`): the kernel writes it back, so a run does not
+/// wait on the disk (3 s of a 2.4 GB `particles.csv` on a 750 MB/s disk).
 pub fn write_atomic_with(
     path: &Path,
-    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    write: impl FnOnce(&mut (dyn Write + Send)) -> std::io::Result<()>,
 ) -> Result<()> {
     let tmp = path.with_extension(match path.extension() {
         Some(ext) => format!("{}.tmp", ext.to_string_lossy()),
@@ -25,8 +27,7 @@ pub fn write_atomic_with(
         let file = std::fs::File::create(&tmp)?;
         let mut writer = std::io::BufWriter::with_capacity(1 << 20, file);
         write(&mut writer)?;
-        let file = writer.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
+        writer.into_inner().map_err(|e| e.into_error())?;
         std::fs::rename(&tmp, path)
     })();
     result.map_err(|e| {

@@ -1,6 +1,11 @@
-//! CSV writers with the stable column names of DESIGN §4. Numbers are written with Rust's
-//! shortest round-trip formatting, so a file read back gives the same `f64` bits.
+//! CSV writers with the stable column names of DESIGN §4. Numbers are written in Rust's
+//! shortest round-trip `{:e}` form (by [`push_lower_exp`], byte for byte), so a file read
+//! back gives the same `f64` bits; particle rows are streamed in parallel chunks
+//! ([`write_rows`]) through a buffered writer, never held whole in memory.
 
+use super::atomic::write_atomic_with;
+use super::exp_format::push_lower_exp;
+use super::rows::{id_order, write_rows};
 use super::write_atomic;
 use crate::error::Result;
 use crate::particles::Particles;
@@ -21,44 +26,50 @@ pub struct ExactColumn<'a> {
 /// `v_w,pore_pressure,effective_stress`; then `<field>_exact` for each exact column; one
 /// line per particle in original order.
 pub fn write_particles(path: &Path, particles: &Particles, exact: &[ExactColumn]) -> Result<()> {
-    let mut out = String::from("x0,x,u,v,stress,volume,density,mass");
+    let mut header = String::from("x0,x,u,v,stress,volume,density,mass");
     if particles.liquid.is_some() {
-        out.push_str(",v_w,pore_pressure,effective_stress");
+        header.push_str(",v_w,pore_pressure,effective_stress");
     }
     for column in exact {
-        let _ = write!(out, ",{}_exact", column.field.column());
+        let _ = write!(header, ",{}_exact", column.field.column());
     }
-    out.push('\n');
-    let mut order: Vec<usize> = (0..particles.len()).collect();
-    order.sort_by_key(|&k| particles.id[k]);
-    for k in order {
-        let p = particles;
-        let pressure = p.liquid.as_ref().map_or(0.0, |l| l.pore_pressure[k]);
-        let _ = write!(
-            out,
-            "{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-            p.x0[k],
-            p.x[k],
-            p.u[k],
-            p.v[k],
-            p.stress[k] + pressure,
-            p.volume[k],
-            p.density[k],
-            p.mass[k]
-        );
-        if let Some(l) = &p.liquid {
-            let _ = write!(
-                out,
-                ",{:e},{:e},{:e}",
-                l.velocity[k], l.pore_pressure[k], p.stress[k]
-            );
-        }
-        for column in exact {
-            let _ = write!(out, ",{:e}", column.values[k]);
-        }
-        out.push('\n');
-    }
-    write_atomic(path, out.as_bytes())
+    header.push('\n');
+    let p = particles;
+    let order = id_order(&p.id);
+    write_atomic_with(path, |writer| {
+        writer.write_all(header.as_bytes())?;
+        write_rows(writer, &order, |k, out| {
+            let pressure = p.liquid.as_ref().map_or(0.0, |l| l.pore_pressure[k]);
+            let total_stress = p.stress[k] + pressure;
+            let columns = [
+                p.x0[k],
+                p.x[k],
+                p.u[k],
+                p.v[k],
+                total_stress,
+                p.volume[k],
+                p.density[k],
+                p.mass[k],
+            ];
+            for (i, &value) in columns.iter().enumerate() {
+                if i > 0 {
+                    out.push(b',');
+                }
+                push_lower_exp(out, value);
+            }
+            if let Some(l) = &p.liquid {
+                for value in [l.velocity[k], l.pore_pressure[k], p.stress[k]] {
+                    out.push(b',');
+                    push_lower_exp(out, value);
+                }
+            }
+            for column in exact {
+                out.push(b',');
+                push_lower_exp(out, column.values[k]);
+            }
+            out.push(b'\n');
+        })
+    })
 }
 
 /// `history.csv`: `step,time,mass_rel_error,momentum_rel_error,kinetic_energy,

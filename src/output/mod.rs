@@ -3,8 +3,10 @@
 
 pub mod atomic;
 pub mod csv;
+pub mod exp_format;
 pub mod legend;
 pub mod plot;
+pub mod rows;
 pub mod run_dir;
 pub mod scatter;
 pub mod summary;

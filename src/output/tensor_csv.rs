@@ -1,21 +1,18 @@
 //! `particles.csv` of 2D / 3D runs with the stable columns of DESIGN §7:
 //! `x0,y0[,z0],x,y[,z],u_x,u_y[,u_z],v_x,v_y[,v_z],stress_xx,stress_yy,stress_zz,stress_xy[,stress_xz,stress_yz],volume,density,mass`,
 //! then the `_exact` columns of `u_*`, `v_*`, `stress_*` that are known. One particle per
-//! line in original (id) order; numbers in Rust's shortest round-trip `{:e}` form. Rows
-//! are formatted in parallel chunks and written in order through a buffered writer into a
-//! temporary file that is renamed into place ([`write_atomic_with`]).
+//! line in original (id) order; numbers in Rust's shortest round-trip `{:e}` form ([`push_lower_exp`]). Rows
+//! are formatted in parallel chunks and streamed in order ([`write_rows`]) through a
+//! buffered writer into a temporary file that is renamed into place ([`write_atomic_with`]).
 
 use super::atomic::write_atomic_with;
+use super::exp_format::push_lower_exp;
+use super::rows::{id_order, write_rows};
 use crate::error::Result;
 use crate::particles::tensor::{written_stress_components, STRESS_COMPONENTS};
 use crate::particles::TensorParticles;
 use crate::problems::Field;
-use rayon::prelude::*;
-use std::fmt::Write as _;
 use std::path::Path;
-
-/// Rows per formatting chunk.
-const ROWS_PER_CHUNK: usize = 16_384;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
@@ -64,59 +61,47 @@ pub fn write_tensor_particles<const D: usize>(
     exact: &[TensorExactColumn],
 ) -> Result<()> {
     let p = particles;
-    let mut order: Vec<usize> = (0..p.len()).collect();
-    order.par_sort_unstable_by_key(|&k| p.id[k]);
+    let order = id_order(&p.id);
     let stress = written_stress_components(D);
-    let chunks: Vec<String> = order
-        .par_chunks(ROWS_PER_CHUNK)
-        .map(|rows| {
-            let mut out = String::with_capacity(rows.len() * 24 * (4 * D + 10));
-            for &k in rows {
-                let mut first = true;
-                let mut put = |out: &mut String, value: f64| {
-                    if !first {
-                        out.push(',');
-                    }
-                    first = false;
-                    let _ = write!(out, "{value:e}");
-                };
-                for field in [&p.x0, &p.x, &p.u, &p.v] {
-                    for component in field {
-                        put(&mut out, component[k]);
-                    }
-                }
-                for &c in stress {
-                    put(&mut out, p.stress[c][k]);
-                }
-                put(&mut out, p.volume[k]);
-                put(&mut out, p.density[k]);
-                put(&mut out, p.mass[k]);
-                for column in exact {
-                    match column.field {
-                        Field::Stress => {
-                            for &c in stress {
-                                put(&mut out, column.values[c][k]);
-                            }
-                        }
-                        _ => {
-                            for component in &column.values[..D] {
-                                put(&mut out, component[k]);
-                            }
-                        }
-                    }
-                }
-                out.push('\n');
-            }
-            out
-        })
-        .collect();
     write_atomic_with(path, |writer| {
         writer.write_all(header(D, exact).as_bytes())?;
         writer.write_all(b"\n")?;
-        for chunk in &chunks {
-            writer.write_all(chunk.as_bytes())?;
-        }
-        Ok(())
+        write_rows(writer, &order, |k, out| {
+            let mut first = true;
+            let mut put = |out: &mut Vec<u8>, value: f64| {
+                if !first {
+                    out.push(b',');
+                }
+                first = false;
+                push_lower_exp(out, value);
+            };
+            for field in [&p.x0, &p.x, &p.u, &p.v] {
+                for component in field {
+                    put(out, component[k]);
+                }
+            }
+            for &c in stress {
+                put(out, p.stress[c][k]);
+            }
+            put(out, p.volume[k]);
+            put(out, p.density[k]);
+            put(out, p.mass[k]);
+            for column in exact {
+                match column.field {
+                    Field::Stress => {
+                        for &c in stress {
+                            put(out, column.values[c][k]);
+                        }
+                    }
+                    _ => {
+                        for component in &column.values[..D] {
+                            put(out, component[k]);
+                        }
+                    }
+                }
+            }
+            out.push(b'\n');
+        })
     })
 }
 
