@@ -19,6 +19,7 @@ use crate::output::Summary;
 use crate::particles::Particles;
 use crate::physics::Simulation;
 use crate::problems::{Field, PlotAxis, Problem, ProblemBody};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -332,6 +333,7 @@ fn write_outputs(
         } else {
             &[(Field::Stress, "stress.svg", "stress [Pa]")]
         };
+        let positions = plot_positions(problem, particles);
         for &(field, file, y_label) in profiles {
             profile_of(
                 &out_dir.join(file),
@@ -339,6 +341,7 @@ fn write_outputs(
                 field,
                 y_label,
                 problem,
+                &positions,
                 simulation,
                 &columns,
             )?;
@@ -347,7 +350,7 @@ fn write_outputs(
             error_plot(
                 &out_dir.join("errors.svg"),
                 name,
-                problem,
+                &positions,
                 simulation,
                 &columns,
             )?;
@@ -358,15 +361,25 @@ fn write_outputs(
 }
 
 /// Particle order along the plot axis of `problem`, the sorted positions and the axis label.
-fn plot_positions(problem: &dyn Problem, p: &Particles) -> (Vec<usize>, Vec<f64>, &'static str) {
+fn plot_positions(problem: &dyn Problem, p: &Particles) -> PlotPositions {
     let (position, x_label) = match problem.plot_axis() {
         PlotAxis::Current => (&p.x, "x [m]"),
         PlotAxis::Initial => (&p.x0, "initial position X [m]"),
     };
     let mut order: Vec<usize> = (0..p.len()).collect();
-    order.sort_by(|&a, &b| position[a].total_cmp(&position[b]));
-    let xs = order.iter().map(|&k| position[k]).collect();
-    (order, xs, x_label)
+    // Stable: equal positions keep storage order, for any thread count.
+    order.par_sort_by(|&a, &b| position[a].total_cmp(&position[b]));
+    let xs = order.par_iter().map(|&k| position[k]).collect();
+    PlotPositions { order, xs, x_label }
+}
+
+/// Particles sorted along the plot axis (shared by every plot of a run).
+struct PlotPositions {
+    /// Storage indices in the order of the plot axis.
+    order: Vec<usize>,
+    /// The sorted positions.
+    xs: Vec<f64>,
+    x_label: &'static str,
 }
 
 /// Error profile: `|f_p - f_exact(X_p)| / max_p |f_exact|` of every known field over the
@@ -374,12 +387,12 @@ fn plot_positions(problem: &dyn Problem, p: &Particles) -> (Vec<usize>, Vec<f64>
 fn error_plot(
     path: &Path,
     name: &str,
-    problem: &dyn Problem,
+    positions: &PlotPositions,
     simulation: &Simulation,
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
-    let (order, xs, x_label) = plot_positions(problem, p);
+    let PlotPositions { order, xs, x_label } = positions;
     let errors: Vec<(String, Vec<f64>)> = columns
         .iter()
         .map(|(field, exact)| {
@@ -387,7 +400,7 @@ fn error_plot(
             let scale = if scale > 0.0 { scale } else { 1.0 };
             let num = numerical(p, *field);
             let values = order
-                .iter()
+                .par_iter()
                 .map(|&k| (num[k] - exact[k]).abs() / scale)
                 .collect();
             (field.name().to_string(), values)
@@ -399,7 +412,7 @@ fn error_plot(
         .iter()
         .map(|(label, values)| Series {
             label,
-            x: &xs,
+            x: xs,
             y: values,
             style: Style::Points,
         })
@@ -429,17 +442,18 @@ fn profile_of(
     field: Field,
     y_label: &str,
     problem: &dyn Problem,
+    positions: &PlotPositions,
     simulation: &Simulation,
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
-    let (order, xs, x_label) = plot_positions(problem, p);
+    let PlotPositions { order, xs, x_label } = positions;
     let values = numerical(p, field);
-    let values: Vec<f64> = order.iter().map(|&k| values[k]).collect();
+    let values: Vec<f64> = order.par_iter().map(|&k| values[k]).collect();
     let exact: Option<Vec<f64>> = columns
         .iter()
         .find(|(f, _)| *f == field)
-        .map(|(_, values)| order.iter().map(|&k| values[k]).collect());
+        .map(|(_, values)| order.par_iter().map(|&k| values[k]).collect());
     let (basis, reconstruction) = simulation.stepper.method_names();
     let label = format!("{basis} / {reconstruction}");
     // The reference first, so that the particles are drawn over it.
@@ -447,14 +461,14 @@ fn profile_of(
     if let Some(exact) = &exact {
         series.push(Series {
             label: problem.reference_label(),
-            x: &xs,
+            x: xs,
             y: exact,
             style: Style::Reference,
         });
     }
     series.push(Series {
         label: &label,
-        x: &xs,
+        x: xs,
         y: &values,
         style: Style::Points,
     });

@@ -21,6 +21,40 @@ pub const MAX_MARKS: usize = 4000;
 /// Largest cell size of the point binning, in pixels.
 const MAX_CELL: f64 = 64.0;
 
+/// Pixel extent covered by the dense occupancy map of [`Occupied`] (cells of points
+/// outside it go to a hash set).
+const DENSE_PIXELS: f64 = 4096.0;
+
+/// The pixel cells that already hold a kept point: a bitmap over
+/// `[0, DENSE_PIXELS)^2` (one test per point, no hashing for the millions of points of a
+/// large run), a hash set beyond it.
+struct Occupied {
+    side: i64,
+    dense: Vec<bool>,
+    outside: HashSet<(i64, i64)>,
+}
+
+impl Occupied {
+    fn new(cell: f64) -> Self {
+        let side = (DENSE_PIXELS / cell).ceil() as i64;
+        Self {
+            side,
+            dense: vec![false; (side * side) as usize],
+            outside: HashSet::new(),
+        }
+    }
+
+    /// Mark cell `(i, j)`; `true` if it was free.
+    fn insert(&mut self, i: i64, j: i64) -> bool {
+        if (0..self.side).contains(&i) && (0..self.side).contains(&j) {
+            let slot = &mut self.dense[(j * self.side + i) as usize];
+            !std::mem::replace(slot, true)
+        } else {
+            self.outside.insert((i, j))
+        }
+    }
+}
+
 /// M4-thin one polyline run; `to_pixel` maps a point to pixel coordinates.
 pub fn thin_line(
     run: &[(f64, f64)],
@@ -69,13 +103,13 @@ pub fn thin_points(
     }
     let mut cell = 2.0;
     loop {
-        let mut occupied = HashSet::new();
+        let mut occupied = Occupied::new(cell);
         let kept: Vec<(f64, f64)> = points
             .iter()
             .copied()
             .filter(|&p| {
                 let (x, y) = to_pixel(p);
-                occupied.insert(((x / cell).floor() as i64, (y / cell).floor() as i64))
+                occupied.insert((x / cell).floor() as i64, (y / cell).floor() as i64)
             })
             .collect();
         if kept.len() <= MAX_MARKS || cell >= MAX_CELL {

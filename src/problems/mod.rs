@@ -162,9 +162,13 @@ pub trait Problem: Send + Sync {
     fn exact_fields(&self) -> &'static [Field];
     /// Exact value of `field` at material position `x0` and time `t` (`None` if unknown).
     fn exact(&self, field: Field, x0: f64, t: f64) -> Option<f64>;
-    /// Exact values of `field` at many material positions (NaN where unknown).
+    /// Exact values of `field` at many material positions (NaN where unknown), evaluated
+    /// in parallel on the current rayon pool (each value on its own: the same bits for any
+    /// thread count).
     fn exact_profile(&self, field: Field, x0: &[f64], t: f64) -> Vec<f64> {
-        x0.iter()
+        use rayon::prelude::*;
+        x0.par_iter()
+            .with_min_len(4096)
             .map(|&x| self.exact(field, x, t).unwrap_or(f64::NAN))
             .collect()
     }
