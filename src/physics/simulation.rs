@@ -131,7 +131,8 @@ impl Simulation {
                     larger(self.max_liquid_momentum_error, report.liquid_momentum_error)
                         .or(Some(0.0));
             }
-            let (kinetic_energy, strain_energy) = self.energies();
+            let (kinetic_energy, strain_energy) =
+                report.energies.unwrap_or_else(|| self.energies());
             self.history.push(HistoryRow {
                 step,
                 time,

@@ -31,8 +31,10 @@ use crate::particles::{CellBins, Particles};
 use crate::physics::{Body, Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
 
-/// Particles per rayon task in particle loops.
-pub(crate) const PARTICLES_PER_TASK: usize = 2048;
+/// Particles per rayon task in particle loops: one block of [`deterministic_sums`], so
+/// the bookkeeping sums folded into these loops (energies, particle momentum) are summed
+/// in the same order, with the same bits, as a separate deterministic pass would.
+pub(crate) const PARTICLES_PER_TASK: usize = crate::numerics::sum::BLOCK;
 
 /// Diagnostics of one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -48,6 +50,9 @@ pub struct StepReport {
     pub liquid_momentum_error: Option<f64>,
     /// Particles that changed cell in this step.
     pub crossings: usize,
+    /// Kinetic and strain energy of the particles at the end of the step, when the step
+    /// computed them on the way (`None`: ask [`TimeStepper::energies`]).
+    pub energies: Option<(f64, f64)>,
 }
 
 /// The time stepper, generic over the basis and the mapping (monomorphised kernels).
@@ -181,23 +186,34 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         // 3.-4. Particle velocities (and, for MUSL, the momentum they carry), grid velocities.
         let momentum_error = match self.scheme {
             Scheme::Musl => {
-                update_particle_velocities(&self.basis, particles, &fields.acceleration, dt);
+                let sums = update_particle_velocities(
+                    &self.basis,
+                    particles,
+                    &fields.acceleration,
+                    dt,
+                    MomentumOf::Updated,
+                );
                 self.mapping
                     .map_momentum(&self.basis, particles, &self.bins, fields);
                 let imbalance = self
                     .mass
                     .velocities(fields, 0.0)
                     .map_err(|e| at_step(e, step, time))?;
-                momentum_error(particles, fields, imbalance)
+                momentum_error_of(sums, fields, imbalance)
             }
             Scheme::Usl => {
                 let imbalance = self
                     .mass
                     .velocities(fields, dt)
                     .map_err(|e| at_step(e, step, time))?;
-                let error = momentum_error(particles, fields, imbalance);
-                update_particle_velocities(&self.basis, particles, &fields.acceleration, dt);
-                error
+                let sums = update_particle_velocities(
+                    &self.basis,
+                    particles,
+                    &fields.acceleration,
+                    dt,
+                    MomentumOf::Previous,
+                );
+                momentum_error_of(sums, fields, imbalance)
             }
         };
 
@@ -234,6 +250,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             mass_error,
             momentum_error,
             crossings: outcome.crossings,
+            energies: Some(outcome.energies),
             ..StepReport::default()
         })
     }
@@ -287,26 +304,46 @@ pub(crate) fn quadrature<'a>(
     }
 }
 
-/// `max(|sum_i p_i - sum_p m_p v_p|, imbalance) / sum_p m_p |v_p|` (see the module doc).
-pub(crate) fn momentum_error(
-    particles: &Particles,
-    fields: &GridFields,
-    imbalance: f64,
-) -> Option<f64> {
-    phase_momentum_error(&particles.mass, &particles.v, fields, imbalance)
-}
-
-/// [`momentum_error`] of a phase with particle masses `m` and velocities `v`.
+/// `max(|sum_i p_i - sum_p m_p v_p|, imbalance) / sum_p m_p |v_p|` (see the module doc)
+/// of a phase with particle masses `m` and velocities `v`.
 pub(crate) fn phase_momentum_error(
     m: &[f64],
     v: &[f64],
     fields: &GridFields,
     imbalance: f64,
 ) -> Option<f64> {
-    let n = m.len();
-    let [particle_momentum, scale] = deterministic_sums(n, |p| [m[p] * v[p], m[p] * v[p].abs()]);
+    let sums = deterministic_sums(m.len(), |p| [m[p] * v[p], m[p] * v[p].abs()]);
+    momentum_error_of(sums, fields, imbalance)
+}
+
+/// The momentum error from the particle sums `[sum_p m_p v_p, sum_p m_p |v_p|]`.
+fn momentum_error_of(
+    [particle_momentum, scale]: [f64; 2],
+    fields: &GridFields,
+    imbalance: f64,
+) -> Option<f64> {
     let grid_momentum: f64 = fields.momentum.iter().sum();
     (scale > 0.0).then(|| (grid_momentum - particle_momentum).abs().max(imbalance) / scale)
+}
+
+/// Sum of the partial sums of consecutive [`PARTICLES_PER_TASK`] blocks, in block order:
+/// bitwise [`deterministic_sums`] of the same terms.
+fn sum_blocks<const K: usize>(blocks: impl IntoIterator<Item = [f64; K]>) -> [f64; K] {
+    let mut blocks = blocks.into_iter();
+    let Some(first) = blocks.next() else {
+        return [0.0; K];
+    };
+    let Some(second) = blocks.next() else {
+        // One block: `deterministic_sums` returns the block sum itself.
+        return first;
+    };
+    let mut total = [0.0; K];
+    for block in [first, second].into_iter().chain(blocks) {
+        for (t, b) in total.iter_mut().zip(block) {
+            *t += b;
+        }
+    }
+    total
 }
 
 /// A solver failure labelled with the step it happened in.
@@ -320,18 +357,59 @@ pub(crate) fn at_step(error: Error, step: usize, time: f64) -> Error {
     }
 }
 
-/// Step 3: `v_p += dt phi^T(x_p) a` for the solid velocities `particles.v`.
+/// Which particle velocities the momentum sums of [`update_particle_velocities`] take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum MomentumOf {
+    /// The updated velocities (MUSL: the momentum the second mapping carries).
+    Updated,
+    /// The velocities before the update (USL: the momentum mapped in step 1).
+    Previous,
+}
+
+/// Step 3: `v_p += dt phi^T(x_p) a` for the solid velocities `particles.v`, returning
+/// `[sum_p m_p v_p, sum_p m_p |v_p|]` of the velocities `momentum_of` names (the
+/// conservation check of the mapping, folded into this pass; bitwise a separate
+/// [`deterministic_sums`]).
 fn update_particle_velocities<B: Basis>(
     basis: &B,
     particles: &mut Particles,
     acceleration: &[f64],
     dt: f64,
-) {
+    momentum_of: MomentumOf,
+) -> [f64; 2] {
     let Particles {
-        x, cell, volume, v, ..
+        x,
+        cell,
+        volume,
+        v,
+        mass,
+        ..
     } = particles;
+    let (x, cell, volume, mass) = (&*x, &*cell, &*volume, &*mass);
     // Non-finite solid velocities are reported by `update_particles`.
-    let _ = update_velocities(basis, x, cell, volume, v, acceleration, dt);
+    let blocks: Vec<[f64; 2]> = v
+        .par_chunks_mut(PARTICLES_PER_TASK)
+        .enumerate()
+        .map(|(chunk, v)| {
+            let start = chunk * PARTICLES_PER_TASK;
+            let mut shape = Shape::default();
+            let mut sums = [0.0; 2];
+            for (k, v) in v.iter_mut().enumerate() {
+                let p = start + k;
+                basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut shape);
+                let previous = *v;
+                *v += dt * shape.interpolate(acceleration);
+                let counted = match momentum_of {
+                    MomentumOf::Updated => *v,
+                    MomentumOf::Previous => previous,
+                };
+                sums[0] += mass[p] * counted;
+                sums[1] += mass[p] * counted.abs();
+            }
+            sums
+        })
+        .collect();
+    sum_blocks(blocks)
 }
 
 /// `velocity_p += dt phi^T(x_p) a` for particles at `x` in `cell` with volumes `volume`
@@ -372,8 +450,14 @@ pub(crate) enum Failure {
     LeftGrid,
 }
 
+/// Of one block of particles: crossings, first failure, `[kinetic, strain]` energy.
+type BlockOutcome = (usize, Option<(usize, Failure)>, [f64; 2]);
+
 pub(crate) struct UpdateOutcome {
     pub(crate) crossings: usize,
+    /// Kinetic `sum_p m_p v_p^2 / 2` and strain energy `sum_p V_p W(sigma_p, F_p)` after
+    /// the update (bitwise [`Stepper::energies`]; meaningless after a failure).
+    pub(crate) energies: (f64, f64),
     /// First failing particle (lowest index) and what failed.
     pub(crate) failure: Option<(usize, Failure)>,
 }
@@ -440,7 +524,7 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
     dt: f64,
     law: L,
 ) -> UpdateOutcome {
-    let v = &particles.v;
+    let (v, mass) = (&particles.v, &particles.mass);
     let chunks = (
         particles.x.par_chunks_mut(PARTICLES_PER_TASK),
         particles.u.par_chunks_mut(PARTICLES_PER_TASK),
@@ -452,7 +536,7 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
             .deformation_gradient
             .par_chunks_mut(PARTICLES_PER_TASK),
     );
-    let (crossings, failure) = chunks
+    let blocks: Vec<BlockOutcome> = chunks
         .into_par_iter()
         .enumerate()
         .map(|(chunk, (x, u, stress, volume, density, cell, f))| {
@@ -460,6 +544,7 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
             let mut shape = Shape::default();
             let mut crossings = 0usize;
             let mut failure = None;
+            let mut energies = [0.0; 2];
             for k in 0..x.len() {
                 basis.eval_particle(cell[k], x[k], 0.5 * volume[k], &mut shape);
                 let du = dt * shape.interpolate(velocity);
@@ -473,6 +558,9 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
                 stress[k] = law.update(stress[k], deps, f[k]);
                 volume[k] *= 1.0 + deps;
                 density[k] /= 1.0 + deps;
+                let vk = v[start + k];
+                energies[0] += 0.5 * mass[start + k] * vk * vk;
+                energies[1] += volume[k] * law.strain_energy_density(stress[k], f[k]);
                 // A collapsed particle (F <= 0) is named as such, before the NaN stress a
                 // hyperelastic law gives it.
                 let bad = if !v[start + k].is_finite() {
@@ -499,19 +587,18 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
                     _ => failure = failure.or(bad.map(|b| (start + k, b))),
                 }
             }
-            (crossings, failure)
+            (crossings, failure, energies)
         })
-        .reduce(
-            || (0, None),
-            |(c1, f1), (c2, f2)| {
-                let failure = match (f1, f2) {
-                    (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
-                    (a, b) => a.or(b),
-                };
-                (c1 + c2, failure)
-            },
-        );
-    UpdateOutcome { crossings, failure }
+        .collect();
+    // Blocks in particle order: the first failure is the lowest index.
+    let crossings = blocks.iter().map(|b| b.0).sum();
+    let failure = blocks.iter().find_map(|b| b.1);
+    let [kinetic, strain] = sum_blocks(blocks.iter().map(|b| b.2));
+    UpdateOutcome {
+        crossings,
+        failure,
+        energies: (kinetic, strain),
+    }
 }
 
 /// Object-safe view of a [`Stepper`]: the time loop dispatches once per step through this

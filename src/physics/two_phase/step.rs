@@ -422,6 +422,8 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
             liquid_mass_error: Some(liquid_mass_error),
             liquid_momentum_error,
             crossings: outcome.crossings,
+            // The liquid's energies are not part of the solid update.
+            energies: None,
         })
     }
 
