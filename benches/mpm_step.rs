@@ -3,6 +3,7 @@
 //! ```text
 //! cargo bench --bench mpm_step                  # every group
 //! cargo bench --bench mpm_step -- mpm_step/serial
+//! cargo bench --bench mpm_step -- mpm_step_methods
 //! cargo bench --bench mpm_step -- mpm_step_2d
 //! cargo bench --bench mpm_step -- mpm_step_3d
 //! cargo bench --bench mpm_step -- mpm_step_2d_tls
@@ -15,6 +16,13 @@
 //!   cell, `dt = 1e-7`) with `N` particles on `N / 12` cells. The throughput is in
 //!   particle-steps per second ("elements"). `serial` runs in a 1-thread rayon pool,
 //!   `parallel` in a pool of `std::thread::available_parallelism()` threads.
+//! * `mpm_step_methods/{method}/t{threads}/1000000`: one whole step of the vibrating bar
+//!   (12 PPC, `dt = 5e-8`, below the consistent mass's limit) through `Simulation::run`, so the per-step bookkeeping of
+//!   `history.csv` (energies, conservation sums) is included as in a run, for `mpm`,
+//!   `bspline2`, `bspline3`, `cpdi`, `mpm_tls`, `bsmpm_tls_consistent` (quadratic B-splines,
+//!   TLS, consistent mass, banded solve) and `imls`; 1 thread and
+//!   `available_parallelism()`. The simulation of a method is built once (lazily, so a
+//!   filter that skips it costs nothing) and keeps stepping across the thread counts.
 //! * `two_phase_step/{mpm,mpm_tls,bsmpm_tls}/N`: one step of the small consolidation
 //!   (`scenarios/consolidation.toml`, SPEC §2.1: three mapped phases, 4 particles per
 //!   cell) with `N` particles, in the parallel pool; compare with `mpm_step/parallel/N` for
@@ -236,6 +244,65 @@ fn mms_step(c: &mut Criterion) {
                     pool.install(|| b.iter(|| black_box(bar.step_with_problem_body())));
                 });
             }
+        }
+    }
+    group.finish();
+}
+
+/// The 1D methods of the method-cost table: id and `method` overrides of the vibrating bar.
+fn methods_1d() -> [(&'static str, &'static [&'static str]); 7] {
+    [
+        ("mpm", &[]),
+        ("bspline2", &["method.basis=\"bspline\"", "method.order=2"]),
+        ("bspline3", &["method.basis=\"bspline\"", "method.order=3"]),
+        ("cpdi", &["method.basis=\"cpdi\""]),
+        ("mpm_tls", &["method.reconstruction=\"tls\""]),
+        (
+            "bsmpm_tls_consistent",
+            &[
+                "method.basis=\"bspline\"",
+                "method.order=2",
+                "method.reconstruction=\"tls\"",
+                "method.mass=\"consistent\"",
+            ],
+        ),
+        ("imls", &["method.reconstruction=\"imls\""]),
+    ]
+}
+
+/// `mpm_step_methods/{method}/t{threads}/N`: one whole step of the vibrating bar through
+/// `Simulation::run` (the bookkeeping of `history.csv` included, as in a run), 12 PPC,
+/// `dt = 5e-8`, per method of [`methods_1d`], 1 thread and `available_parallelism()`.
+fn mpm_step_methods(c: &mut Criterion) {
+    let mut group = c.benchmark_group("mpm_step_methods");
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    let n = 1_000_000;
+    group.throughput(Throughput::Elements(n as u64));
+    let threads = [1, parallel_threads()];
+    for (name, sets) in methods_1d() {
+        let mut bar: Option<Bar> = None;
+        for &t in &threads {
+            let pool = pool(t);
+            let id = BenchmarkId::new(format!("{name}/t{t}"), n);
+            group.bench_function(id, |b| {
+                pool.install(|| {
+                    let bar = bar.get_or_insert_with(|| {
+                        let mut overrides = vec![
+                            format!("grid.cells={}", n / PER_CELL),
+                            format!("particles.per_cell={PER_CELL}"),
+                            // Below the consistent-mass stability limit (8.7e-8 s).
+                            "time.dt=5.0e-8".to_string(),
+                        ];
+                        overrides.extend(sets.iter().map(|s| s.to_string()));
+                        Bar::from_scenario(SCENARIO, &overrides)
+                    });
+                    b.iter(|| black_box(bar.step_with_problem_body()))
+                });
+            });
         }
     }
     group.finish();
@@ -473,6 +540,7 @@ fn memory_bandwidth(c: &mut Criterion) {
 criterion_group!(
     benches,
     mpm_step,
+    mpm_step_methods,
     two_phase_step,
     mms_step,
     mpm_step_2d,
