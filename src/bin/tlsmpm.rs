@@ -80,14 +80,16 @@ enum Command {
         #[arg(long, value_delimiter = ',', required = true)]
         cells: Vec<usize>,
     },
-    /// Function-reconstruction benchmark (SPEC 6.1): TLS vs cubic spline on sin x + 2.
+    /// Function-reconstruction benchmark: TLS vs cubic spline on sin x + 2 (the accuracy
+    /// and conservation of one reconstruction, without a time step).
     Reconstruct {
         /// Output directory for reconstruction.csv and reconstruction.svg.
         #[arg(long, default_value = "out/reconstruction")]
         out: PathBuf,
     },
-    /// Consistent-mass solver study (SPEC 5.1): condition numbers, iterations and time per
-    /// solver for B-spline mass matrices on the unit interval or square.
+    /// Consistent-mass solver study (README, "Consistent-mass solvers"): condition numbers,
+    /// iterations and time per solver for B-spline mass matrices on the unit interval or
+    /// square.
     SolverStudy {
         /// Dimension: 1 (banded matrices) or 2 (tensor product).
         #[arg(long, default_value_t = 2)]
@@ -105,8 +107,8 @@ enum Command {
         /// Relative residual to reach.
         #[arg(long, default_value_t = 1e-8)]
         tolerance: f64,
-        /// p-multigrid smoother: jacobi, gauss_seidel or symmetric_gauss_seidel (the best
-        /// of SPEC 5.2).
+        /// p-multigrid smoother: jacobi, gauss_seidel or symmetric_gauss_seidel (the
+        /// best of the three on B-spline mass matrices).
         #[arg(long, default_value = "symmetric_gauss_seidel")]
         smoother: String,
         /// p-multigrid pre-smoothing sweeps.
