@@ -1,7 +1,7 @@
 //! Streaming of one text row per particle: rows are formatted in parallel chunks of
 //! [`ROWS_PER_CHUNK`] and written in order, a bounded batch of chunks at a time, so a file
-//! of `N` rows never exists whole in memory (at most `2 · threads` chunks, a few MB) and the
-//! bytes do not depend on the thread count.
+//! of `N` rows never exists whole in memory (one batch of `2 · threads` chunks being written
+//! while the next is formatted, a few MB) and the bytes do not depend on the thread count.
 
 use rayon::prelude::*;
 use std::io::Write;
