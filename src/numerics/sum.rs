@@ -58,8 +58,31 @@ where
         .into_par_iter()
         .map(|b| block_sum(b * BLOCK..((b + 1) * BLOCK).min(n)))
         .collect();
+    sum_block_partials(&partial)
+}
+
+/// The total of consecutive blocks' partial sums (each block of [`BLOCK`] items summed
+/// left to right), added left to right: what [`deterministic_sums`] returns for the same
+/// terms, bit for bit, so a parallel loop over blocks of [`BLOCK`] items can fold its own
+/// sums and keep them. One block is returned as it is.
+///
+/// ```
+/// use tlsmpm::numerics::sum::{deterministic_sums, sum_block_partials, BLOCK};
+/// let n = 2 * BLOCK + 5;
+/// let term = |k: usize| [1.0 / (k as f64 + 1.0)];
+/// let partial: Vec<[f64; 1]> = (0..n)
+///     .collect::<Vec<_>>()
+///     .chunks(BLOCK)
+///     .map(|block| [block.iter().fold(0.0, |acc, &k| acc + term(k)[0])])
+///     .collect();
+/// assert_eq!(sum_block_partials(&partial), deterministic_sums(n, term));
+/// ```
+pub fn sum_block_partials<const K: usize>(partial: &[[f64; K]]) -> [f64; K] {
+    if let [single] = partial {
+        return *single;
+    }
     let mut total = [0.0; K];
-    for block in &partial {
+    for block in partial {
         for (t, b) in total.iter_mut().zip(block) {
             *t += b;
         }

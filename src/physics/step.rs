@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 use crate::grid::{Basis, Grid, ParticleQuadrature, Shape};
 use crate::linalg::CsrMatrix;
 use crate::mapping::{GridFields, Mapping, RemedyCounts};
-use crate::numerics::sum::{deterministic_sum, deterministic_sums};
+use crate::numerics::sum::{deterministic_sum, deterministic_sums, sum_block_partials};
 use crate::particles::{CellBins, Particles};
 use crate::physics::{Body, Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
@@ -326,26 +326,6 @@ fn momentum_error_of(
     (scale > 0.0).then(|| (grid_momentum - particle_momentum).abs().max(imbalance) / scale)
 }
 
-/// Sum of the partial sums of consecutive [`PARTICLES_PER_TASK`] blocks, in block order:
-/// bitwise [`deterministic_sums`] of the same terms.
-fn sum_blocks<const K: usize>(blocks: impl IntoIterator<Item = [f64; K]>) -> [f64; K] {
-    let mut blocks = blocks.into_iter();
-    let Some(first) = blocks.next() else {
-        return [0.0; K];
-    };
-    let Some(second) = blocks.next() else {
-        // One block: `deterministic_sums` returns the block sum itself.
-        return first;
-    };
-    let mut total = [0.0; K];
-    for block in [first, second].into_iter().chain(blocks) {
-        for (t, b) in total.iter_mut().zip(block) {
-            *t += b;
-        }
-    }
-    total
-}
-
 /// A solver failure labelled with the step it happened in.
 pub(crate) fn at_step(error: Error, step: usize, time: f64) -> Error {
     match error {
@@ -385,31 +365,18 @@ fn update_particle_velocities<B: Basis>(
         mass,
         ..
     } = particles;
-    let (x, cell, volume, mass) = (&*x, &*cell, &*volume, &*mass);
     // Non-finite solid velocities are reported by `update_particles`.
-    let blocks: Vec<[f64; 2]> = v
-        .par_chunks_mut(PARTICLES_PER_TASK)
-        .enumerate()
-        .map(|(chunk, v)| {
-            let start = chunk * PARTICLES_PER_TASK;
-            let mut shape = Shape::default();
-            let mut sums = [0.0; 2];
-            for (k, v) in v.iter_mut().enumerate() {
-                let p = start + k;
-                basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut shape);
-                let previous = *v;
-                *v += dt * shape.interpolate(acceleration);
-                let counted = match momentum_of {
-                    MomentumOf::Updated => *v,
-                    MomentumOf::Previous => previous,
-                };
-                sums[0] += mass[p] * counted;
-                sums[1] += mass[p] * counted.abs();
-            }
-            sums
-        })
-        .collect();
-    sum_blocks(blocks)
+    let (_, sums) = update_velocities_counting(
+        basis,
+        x,
+        cell,
+        volume,
+        v,
+        acceleration,
+        dt,
+        Some((mass, momentum_of)),
+    );
+    sums
 }
 
 /// `velocity_p += dt phi^T(x_p) a` for particles at `x` in `cell` with volumes `volume`
@@ -423,22 +390,52 @@ pub(crate) fn update_velocities<B: Basis>(
     acceleration: &[f64],
     dt: f64,
 ) -> bool {
-    velocity
+    update_velocities_counting(basis, x, cell, volume, velocity, acceleration, dt, None).0
+}
+
+/// [`update_velocities`], also returning `[sum_p m_p v_p, sum_p m_p |v_p|]` over the
+/// velocities `momentum_of` names when masses are given (zeros otherwise), summed per
+/// task block as [`deterministic_sums`] would.
+#[allow(clippy::too_many_arguments)]
+fn update_velocities_counting<B: Basis>(
+    basis: &B,
+    x: &[f64],
+    cell: &[usize],
+    volume: &[f64],
+    velocity: &mut [f64],
+    acceleration: &[f64],
+    dt: f64,
+    momentum: Option<(&[f64], MomentumOf)>,
+) -> (bool, [f64; 2]) {
+    let blocks: Vec<(bool, [f64; 2])> = velocity
         .par_chunks_mut(PARTICLES_PER_TASK)
         .enumerate()
         .map(|(chunk, v)| {
             let start = chunk * PARTICLES_PER_TASK;
             let mut shape = Shape::default();
             let mut bad = false;
+            let mut sums = [0.0; 2];
             for (k, v) in v.iter_mut().enumerate() {
                 let p = start + k;
                 basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut shape);
+                let previous = *v;
                 *v += dt * shape.interpolate(acceleration);
                 bad |= !v.is_finite();
+                if let Some((mass, momentum_of)) = momentum {
+                    let counted = match momentum_of {
+                        MomentumOf::Updated => *v,
+                        MomentumOf::Previous => previous,
+                    };
+                    sums[0] += mass[p] * counted;
+                    sums[1] += mass[p] * counted.abs();
+                }
             }
-            bad
+            (bad, sums)
         })
-        .reduce(|| false, |a, b| a || b)
+        .collect();
+    let bad = blocks.iter().any(|b| b.0);
+    let sums: Vec<[f64; 2]> = blocks.iter().map(|b| b.1).collect();
+    (bad, sum_block_partials(&sums))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -593,7 +590,8 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
     // Blocks in particle order: the first failure is the lowest index.
     let crossings = blocks.iter().map(|b| b.0).sum();
     let failure = blocks.iter().find_map(|b| b.1);
-    let [kinetic, strain] = sum_blocks(blocks.iter().map(|b| b.2));
+    let energies: Vec<[f64; 2]> = blocks.iter().map(|b| b.2).collect();
+    let [kinetic, strain] = sum_block_partials(&energies);
     UpdateOutcome {
         crossings,
         failure,
