@@ -39,6 +39,38 @@ impl Shape {
         self.phi[..self.len].iter().zip(g).map(|(p, v)| p * v).sum()
     }
 
+    /// [`Shape::interpolate`] over exactly `N` functions (`N = 0`: `len`), for shapes from
+    /// [`Basis::eval_particle_n`]: the same operations in the same order, unrolled.
+    #[inline(always)]
+    pub fn interpolate_n<const N: usize>(&self, grid_field: &[f64]) -> f64 {
+        if N == 0 {
+            return self.interpolate(grid_field);
+        }
+        let g = &grid_field[self.first..self.first + N];
+        self.phi[..N].iter().zip(g).map(|(p, v)| p * v).sum()
+    }
+
+    /// [`Shape::gradient`] over exactly `N` functions (`N = 0`: `len`).
+    #[inline(always)]
+    pub fn gradient_n<const N: usize>(&self, grid_field: &[f64]) -> f64 {
+        if N == 0 {
+            return self.gradient(grid_field);
+        }
+        let g = &grid_field[self.first..self.first + N];
+        self.dphi[..N].iter().zip(g).map(|(p, v)| p * v).sum()
+    }
+
+    /// The number of functions a loop over a shape from [`Basis::eval_particle_n`] runs
+    /// over: `N`, known at compile time, or `len` when `N = 0`.
+    #[inline(always)]
+    pub fn support<const N: usize>(&self) -> usize {
+        if N == 0 {
+            self.len
+        } else {
+            N
+        }
+    }
+
     /// `sum_k dphi_k g[first + k]`: the gradient of a grid field.
     #[inline]
     pub fn gradient(&self, grid_field: &[f64]) -> f64 {
@@ -102,6 +134,14 @@ pub trait Basis: Sync + Send {
     /// Recompute what depends on the particle configuration. Default: nothing.
     fn update(&mut self, quadrature: ParticleQuadrature<'_>) {
         let _ = quadrature;
+    }
+
+    /// Whether a step should evaluate this basis once per particle and read the values
+    /// back in every pass at the same positions ([`super::ShapeCache`]) rather than
+    /// evaluate in each pass: `true` where an evaluation costs more than reading its
+    /// `2 W` values back from memory. Default: `false` (cheap bases like the linear hat).
+    fn reuse_shapes(&self) -> bool {
+        false
     }
 
     /// `Some(n)` when every evaluation has exactly `n` non-zero functions (`Shape::len`),

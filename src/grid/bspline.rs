@@ -111,6 +111,12 @@ impl Basis for BSplineBasis {
     fn fixed_support(&self) -> Option<usize> {
         Some(self.order + 1)
     }
+
+    /// From order 2 on, de Boor's triangle costs more than reading `2 (p + 1)` values
+    /// back; order 1 is the linear hat.
+    fn reuse_shapes(&self) -> bool {
+        self.order >= 2
+    }
 }
 
 #[cfg(test)]

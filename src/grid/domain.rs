@@ -66,6 +66,11 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
         4.min(self.grid.cells + 1)
     }
 
+    /// Two hats per node of the window and a division: dearer than a read back.
+    fn reuse_shapes(&self) -> bool {
+        true
+    }
+
     /// A point evaluation is the plain linear hat.
     #[inline]
     fn eval(&self, cell: usize, x: f64, shape: &mut Shape) {

@@ -12,6 +12,7 @@ pub mod ddmpm;
 mod domain;
 pub mod gimp;
 pub mod linear;
+pub mod shape_cache;
 pub mod tensor;
 
 pub use basis::{Basis, ParticleQuadrature, Shape, MAX_SUPPORT};
@@ -20,6 +21,7 @@ pub use cpdi::CpdiBasis;
 pub use ddmpm::DdmpmBasis;
 pub use gimp::GimpBasis;
 pub use linear::LinearBasis;
+pub use shape_cache::{Evaluate, ShapeCache, ShapeSource};
 pub use tensor::{TensorBasis, TensorGrid, TensorShape};
 
 /// A uniform 1D grid of `cells` cells of size `h` starting at `origin`.

@@ -16,9 +16,9 @@
 
 use super::{Basis, Grid, Shape};
 
-/// Evaluate `$body` with the const `$n` set to the fixed support of `$basis` (a
-/// [`TensorBasis`]) when it is 2, 3 or 4, else to 0 (run-time support): one dispatch per
-/// pass, then loops compiled for that support size.
+/// Evaluate `$body` with the const `$n` set to the fixed support of `$basis` (a 1D
+/// [`Basis`] or a [`TensorBasis`]: B-splines of order 1–3) when it is 2, 3 or 4, else to 0
+/// (run-time support): one dispatch per pass, then loops compiled for that support size.
 macro_rules! with_fixed_support {
     ($basis:expr, $n:ident => $body:expr) => {
         match $basis.fixed_support() {

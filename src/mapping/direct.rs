@@ -11,7 +11,7 @@
 
 use super::points::{map_mass_and_force, map_momentum, ParticlePoints};
 use super::{CellScatter, GridFields, Mapping};
-use crate::grid::Basis;
+use crate::grid::{Basis, ShapeCache};
 use crate::particles::{CellBins, Particles};
 
 /// Standard MPM mapping by particle quadrature.
@@ -44,6 +44,30 @@ impl Mapping for DirectMapping {
         grid: &mut GridFields,
     ) {
         let points = ParticlePoints::new(particles, bins);
+        map_momentum(&mut self.scatter, basis, &points, particles, bins, grid);
+    }
+
+    fn map_mass_and_internal_force_reusing<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+        shapes: &ShapeCache,
+    ) {
+        let points = ParticlePoints::with_source(particles, bins, shapes);
+        map_mass_and_force(&mut self.scatter, basis, &points, particles, bins, grid);
+    }
+
+    fn map_momentum_reusing<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+        shapes: &ShapeCache,
+    ) {
+        let points = ParticlePoints::with_source(particles, bins, shapes);
         map_momentum(&mut self.scatter, basis, &points, particles, bins, grid);
     }
 }

@@ -33,7 +33,7 @@ pub use scatter::CellScatter;
 pub use subpoints::SubpointMapping;
 pub use tls::TlsMapping;
 
-use crate::grid::Basis;
+use crate::grid::{Basis, ShapeCache};
 use crate::linalg::CsrMatrix;
 use crate::particles::{CellBins, Particles};
 use serde::Serialize;
@@ -125,6 +125,36 @@ pub trait Mapping: Send {
         bins: &CellBins,
         grid: &mut GridFields,
     );
+
+    /// [`Mapping::map_mass_and_internal_force`] in a step that evaluated the basis once at
+    /// the particles' current positions and domains (`shapes`). A mapping that evaluates
+    /// the basis at the particles reads the values from there (bitwise the same); the
+    /// default ignores `shapes`.
+    fn map_mass_and_internal_force_reusing<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+        shapes: &ShapeCache,
+    ) {
+        let _ = shapes;
+        self.map_mass_and_internal_force(basis, particles, bins, grid);
+    }
+
+    /// [`Mapping::map_momentum`] with the step's shapes at the particles (see
+    /// [`Mapping::map_mass_and_internal_force_reusing`]). Default: ignores `shapes`.
+    fn map_momentum_reusing<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        bins: &CellBins,
+        grid: &mut GridFields,
+        shapes: &ShapeCache,
+    ) {
+        let _ = shapes;
+        self.map_momentum(basis, particles, bins, grid);
+    }
 
     /// Particle strain increments `deps_p` from the grid velocities `velocity` over `dt`,
     /// for a mapping that defines the strain conjugate to its own internal force (the

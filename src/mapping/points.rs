@@ -16,7 +16,8 @@
 
 use super::scatter::add_outer;
 use super::{CellScatter, GridFields};
-use crate::grid::{Basis, Shape};
+use crate::grid::tensor::with_fixed_support;
+use crate::grid::{Basis, Evaluate, Shape, ShapeSource};
 use crate::particles::{CellBins, Particles};
 
 /// Quadrature points of a particle mapping, found cell by cell.
@@ -27,24 +28,49 @@ pub trait PointSet: Sync {
     /// Call `f(p, x)` for every point of particle `p` at `x` that lies in `cell`, in a
     /// fixed order.
     fn for_each_in<F: FnMut(usize, f64)>(&self, cell: usize, f: F);
+
+    /// The basis (support `N`) at point `p` of cell `cell` at `x` with half-length
+    /// `half_length`. Default: evaluate it.
+    #[inline(always)]
+    fn shape_at<B: Basis, const N: usize>(
+        &self,
+        basis: &B,
+        p: usize,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    ) {
+        Evaluate.shape_of::<B, N>(basis, p, cell, x, half_length, shape);
+    }
 }
 
-/// The particles themselves, one point each (standard MPM).
-pub struct ParticlePoints<'a> {
+/// The particles themselves, one point each (standard MPM), with their shapes from
+/// `source` (evaluated, or read back from the step's [`crate::grid::ShapeCache`]).
+pub struct ParticlePoints<'a, S: ShapeSource = Evaluate> {
     x: &'a [f64],
     bins: &'a CellBins,
+    source: &'a S,
 }
 
 impl<'a> ParticlePoints<'a> {
     pub fn new(particles: &'a Particles, bins: &'a CellBins) -> Self {
+        Self::with_source(particles, bins, &Evaluate)
+    }
+}
+
+impl<'a, S: ShapeSource> ParticlePoints<'a, S> {
+    /// The particles with their shapes from `source`.
+    pub fn with_source(particles: &'a Particles, bins: &'a CellBins, source: &'a S) -> Self {
         Self {
             x: &particles.x,
             bins,
+            source,
         }
     }
 }
 
-impl PointSet for ParticlePoints<'_> {
+impl<S: ShapeSource> PointSet for ParticlePoints<'_, S> {
     #[inline]
     fn weight(&self) -> f64 {
         1.0
@@ -56,10 +82,39 @@ impl PointSet for ParticlePoints<'_> {
             f(p, self.x[p]);
         }
     }
+
+    #[inline(always)]
+    fn shape_at<B: Basis, const N: usize>(
+        &self,
+        basis: &B,
+        p: usize,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    ) {
+        self.source
+            .shape_of::<B, N>(basis, p, cell, x, half_length, shape);
+    }
 }
 
 /// `m`, `f_int` and (when present) `M^C` by quadrature at `points`.
 pub fn map_mass_and_force<B: Basis, P: PointSet>(
+    scatter: &mut CellScatter,
+    basis: &B,
+    points: &P,
+    particles: &Particles,
+    bins: &CellBins,
+    grid: &mut GridFields,
+) {
+    with_fixed_support!(basis, N => scatter_mass_and_force::<B, P, N>(
+        scatter, basis, points, particles, bins, grid
+    ));
+}
+
+/// [`map_mass_and_force`] with loops compiled for `N` functions per point
+/// ([`Basis::eval_particle_n`]).
+fn scatter_mass_and_force<B: Basis, P: PointSet, const N: usize>(
     scatter: &mut CellScatter,
     basis: &B,
     points: &P,
@@ -77,10 +132,10 @@ pub fn map_mass_and_force<B: Basis, P: PointSet>(
             let mut shape = Shape::default();
             points.for_each_in(cell, |p, x| {
                 let v = volume[p] * w;
-                basis.eval_particle(cell, x, 0.5 * v, &mut shape);
+                points.shape_at::<B, N>(basis, p, cell, x, 0.5 * v, &mut shape);
                 let offset = shape.first - first;
                 let (m, sv) = (mass[p] * w, stress[p] * v);
-                for k in 0..shape.len {
+                for k in 0..shape.support::<N>() {
                     m_local[offset + k] += m * shape.phi[k];
                     f_local[offset + k] += sv * shape.dphi[k];
                 }
@@ -91,7 +146,7 @@ pub fn map_mass_and_force<B: Basis, P: PointSet>(
         scatter.scatter_matrix(basis, bins.cells(), matrix, |cell, first, local| {
             let mut shape = Shape::default();
             points.for_each_in(cell, |p, x| {
-                basis.eval_particle(cell, x, 0.5 * (volume[p] * w), &mut shape);
+                points.shape_at::<B, N>(basis, p, cell, x, 0.5 * (volume[p] * w), &mut shape);
                 add_outer(local, shape.first - first, &shape, mass[p] * w);
             });
         });
@@ -100,6 +155,20 @@ pub fn map_mass_and_force<B: Basis, P: PointSet>(
 
 /// `p` by quadrature at `points` from the current particle velocities.
 pub fn map_momentum<B: Basis, P: PointSet>(
+    scatter: &mut CellScatter,
+    basis: &B,
+    points: &P,
+    particles: &Particles,
+    bins: &CellBins,
+    grid: &mut GridFields,
+) {
+    with_fixed_support!(basis, N => scatter_momentum::<B, P, N>(
+        scatter, basis, points, particles, bins, grid
+    ));
+}
+
+/// [`map_momentum`] with loops compiled for `N` functions per point.
+fn scatter_momentum<B: Basis, P: PointSet, const N: usize>(
     scatter: &mut CellScatter,
     basis: &B,
     points: &P,
@@ -116,10 +185,10 @@ pub fn map_momentum<B: Basis, P: PointSet>(
         |cell, first, [p_local]| {
             let mut shape = Shape::default();
             points.for_each_in(cell, |p, x| {
-                basis.eval_particle(cell, x, 0.5 * (volume[p] * w), &mut shape);
+                points.shape_at::<B, N>(basis, p, cell, x, 0.5 * (volume[p] * w), &mut shape);
                 let offset = shape.first - first;
                 let mv = mass[p] * w * v[p];
-                for k in 0..shape.len {
+                for k in 0..shape.support::<N>() {
                     p_local[offset + k] += mv * shape.phi[k];
                 }
             });

@@ -23,7 +23,8 @@
 
 use crate::config::Scheme;
 use crate::error::{Error, Result};
-use crate::grid::{Basis, Grid, ParticleQuadrature, Shape};
+use crate::grid::tensor::with_fixed_support;
+use crate::grid::{Basis, Evaluate, Grid, ParticleQuadrature, Shape, ShapeCache, ShapeSource};
 use crate::linalg::CsrMatrix;
 use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums, sum_block_partials};
@@ -75,6 +76,9 @@ pub struct Stepper<B: Basis, M: Mapping> {
     /// Particle strain increments of a mapping that defines its own
     /// ([`Mapping::strain_increments`]).
     strain: Vec<f64>,
+    /// The basis at the particles, evaluated once per step for the passes that need it
+    /// (bases with [`Basis::reuse_shapes`]).
+    shapes: Option<ShapeCache>,
 }
 
 impl<B: Basis, M: Mapping> Stepper<B, M> {
@@ -105,7 +109,6 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         }
         Self {
             grid,
-            basis,
             mapping,
             material,
             scheme,
@@ -118,6 +121,8 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             body_view: Particles::default(),
             body_fields: None,
             strain: Vec::new(),
+            shapes: basis.reuse_shapes().then(ShapeCache::default),
+            basis,
         }
     }
 
@@ -135,11 +140,26 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         if self.basis.depends_on_particles() {
             self.basis.update(quadrature(particles, &self.bins));
         }
+        if let Some(shapes) = self.shapes.as_mut() {
+            shapes.fill(
+                &self.basis,
+                &particles.x,
+                &particles.cell,
+                &particles.volume,
+            );
+        }
+        let shapes = self.shapes.as_ref();
         let fields = &mut self.fields;
 
         // 1. Mass, internal and external force.
-        self.mapping
-            .map_mass_and_internal_force(&self.basis, particles, &self.bins, fields);
+        map_mass_and_force(
+            &mut self.mapping,
+            &self.basis,
+            particles,
+            &self.bins,
+            fields,
+            shapes,
+        );
         let grid_mass: f64 = fields.mass.iter().sum();
         let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
         match body {
@@ -157,8 +177,15 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                 let body_fields = self
                     .body_fields
                     .get_or_insert_with(|| GridFields::new(fields.mass.len()));
-                self.mapping
-                    .map_momentum(&self.basis, &self.body_view, &self.bins, body_fields);
+                // The view has the particles' positions and volumes: same shapes.
+                map_momentum(
+                    &mut self.mapping,
+                    &self.basis,
+                    &self.body_view,
+                    &self.bins,
+                    body_fields,
+                    shapes,
+                );
                 fields.external_force.copy_from_slice(&body_fields.momentum);
             }
         }
@@ -172,8 +199,14 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             );
         }
         if self.scheme == Scheme::Usl {
-            self.mapping
-                .map_momentum(&self.basis, particles, &self.bins, fields);
+            map_momentum(
+                &mut self.mapping,
+                &self.basis,
+                particles,
+                &self.bins,
+                fields,
+                shapes,
+            );
         }
 
         // 2. Accelerations.
@@ -188,13 +221,20 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             Scheme::Musl => {
                 let sums = update_particle_velocities(
                     &self.basis,
+                    shapes,
                     particles,
                     &fields.acceleration,
                     dt,
                     MomentumOf::Updated,
                 );
-                self.mapping
-                    .map_momentum(&self.basis, particles, &self.bins, fields);
+                map_momentum(
+                    &mut self.mapping,
+                    &self.basis,
+                    particles,
+                    &self.bins,
+                    fields,
+                    shapes,
+                );
                 let imbalance = self
                     .mass
                     .velocities(fields, 0.0)
@@ -208,6 +248,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                     .map_err(|e| at_step(e, step, time))?;
                 let sums = update_particle_velocities(
                     &self.basis,
+                    shapes,
                     particles,
                     &fields.acceleration,
                     dt,
@@ -228,6 +269,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         let outcome = update_particles_with(
             self.material,
             &self.basis,
+            shapes,
             &self.grid,
             particles,
             &fields.velocity,
@@ -253,6 +295,38 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             energies: Some(outcome.energies),
             ..StepReport::default()
         })
+    }
+}
+
+/// Step 1 by `mapping`, with the step's shapes at the particles when there are.
+fn map_mass_and_force<B: Basis, M: Mapping>(
+    mapping: &mut M,
+    basis: &B,
+    particles: &Particles,
+    bins: &CellBins,
+    fields: &mut GridFields,
+    shapes: Option<&ShapeCache>,
+) {
+    match shapes {
+        Some(shapes) => {
+            mapping.map_mass_and_internal_force_reusing(basis, particles, bins, fields, shapes)
+        }
+        None => mapping.map_mass_and_internal_force(basis, particles, bins, fields),
+    }
+}
+
+/// The momentum mapping by `mapping`, with the step's shapes when there are.
+fn map_momentum<B: Basis, M: Mapping>(
+    mapping: &mut M,
+    basis: &B,
+    particles: &Particles,
+    bins: &CellBins,
+    fields: &mut GridFields,
+    shapes: Option<&ShapeCache>,
+) {
+    match shapes {
+        Some(shapes) => mapping.map_momentum_reusing(basis, particles, bins, fields, shapes),
+        None => mapping.map_momentum(basis, particles, bins, fields),
     }
 }
 
@@ -352,6 +426,7 @@ enum MomentumOf {
 /// [`deterministic_sums`]).
 fn update_particle_velocities<B: Basis>(
     basis: &B,
+    shapes: Option<&ShapeCache>,
     particles: &mut Particles,
     acceleration: &[f64],
     dt: f64,
@@ -366,16 +441,31 @@ fn update_particle_velocities<B: Basis>(
         ..
     } = particles;
     // Non-finite solid velocities are reported by `update_particles`.
-    let (_, sums) = update_velocities_counting(
-        basis,
-        x,
-        cell,
-        volume,
-        v,
-        acceleration,
-        dt,
-        Some((mass, momentum_of)),
-    );
+    let momentum = Some((&mass[..], momentum_of));
+    let (_, sums) = match shapes {
+        Some(shapes) => update_velocities_counting(
+            basis,
+            shapes,
+            x,
+            cell,
+            volume,
+            v,
+            acceleration,
+            dt,
+            momentum,
+        ),
+        None => update_velocities_counting(
+            basis,
+            &Evaluate,
+            x,
+            cell,
+            volume,
+            v,
+            acceleration,
+            dt,
+            momentum,
+        ),
+    };
     sums
 }
 
@@ -390,15 +480,46 @@ pub(crate) fn update_velocities<B: Basis>(
     acceleration: &[f64],
     dt: f64,
 ) -> bool {
-    update_velocities_counting(basis, x, cell, volume, velocity, acceleration, dt, None).0
+    update_velocities_counting(
+        basis,
+        &Evaluate,
+        x,
+        cell,
+        volume,
+        velocity,
+        acceleration,
+        dt,
+        None,
+    )
+    .0
 }
 
 /// [`update_velocities`], also returning `[sum_p m_p v_p, sum_p m_p |v_p|]` over the
 /// velocities `momentum_of` names when masses are given (zeros otherwise), summed per
 /// task block as [`deterministic_sums`] would.
 #[allow(clippy::too_many_arguments)]
-fn update_velocities_counting<B: Basis>(
+fn update_velocities_counting<B: Basis, S: ShapeSource>(
     basis: &B,
+    source: &S,
+    x: &[f64],
+    cell: &[usize],
+    volume: &[f64],
+    velocity: &mut [f64],
+    acceleration: &[f64],
+    dt: f64,
+    momentum: Option<(&[f64], MomentumOf)>,
+) -> (bool, [f64; 2]) {
+    with_fixed_support!(basis, N => update_velocities_n::<B, S, N>(
+        basis, source, x, cell, volume, velocity, acceleration, dt, momentum
+    ))
+}
+
+/// [`update_velocities_counting`] with loops compiled for `N` functions per particle
+/// ([`Basis::eval_particle_n`]).
+#[allow(clippy::too_many_arguments)]
+fn update_velocities_n<B: Basis, S: ShapeSource, const N: usize>(
+    basis: &B,
+    source: &S,
     x: &[f64],
     cell: &[usize],
     volume: &[f64],
@@ -417,9 +538,9 @@ fn update_velocities_counting<B: Basis>(
             let mut sums = [0.0; 2];
             for (k, v) in v.iter_mut().enumerate() {
                 let p = start + k;
-                basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut shape);
+                source.shape_of::<B, N>(basis, p, cell[p], x[p], 0.5 * volume[p], &mut shape);
                 let previous = *v;
-                *v += dt * shape.interpolate(acceleration);
+                *v += dt * shape.interpolate_n::<N>(acceleration);
                 bad |= !v.is_finite();
                 if let Some((mass, momentum_of)) = momentum {
                     let counted = match momentum_of {
@@ -489,38 +610,83 @@ impl UpdateOutcome {
     }
 }
 
-/// [`update_particles`] with the law of `material`, dispatched once.
+/// [`update_particles`] with the law of `material` and the support of the basis,
+/// dispatched once.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn update_particles_with<B: Basis>(
     material: Material,
     basis: &B,
+    shapes: Option<&ShapeCache>,
     grid: &Grid,
     particles: &mut Particles,
     velocity: &[f64],
     strain: Option<&[f64]>,
     dt: f64,
 ) -> UpdateOutcome {
-    match material {
-        Material::Linear(law) => {
-            update_particles(basis, grid, particles, velocity, strain, dt, law)
-        }
-        Material::Hill(law) => update_particles(basis, grid, particles, velocity, strain, dt, law),
-        Material::NeoHookean(law) => {
-            update_particles(basis, grid, particles, velocity, strain, dt, law)
-        }
+    match shapes {
+        Some(shapes) => update_particles_from(
+            material, basis, shapes, grid, particles, velocity, strain, dt,
+        ),
+        None => update_particles_from(
+            material, basis, &Evaluate, grid, particles, velocity, strain, dt,
+        ),
     }
 }
 
-/// Steps 5–8 and the new cell of every particle. The strain increments are
-/// `dt dphi^T(x_p) v`, or `strain` when the mapping defines its own.
-fn update_particles<B: Basis, L: ConstitutiveLaw>(
+/// [`update_particles`] with the shapes from `source`, dispatched on the law and the
+/// support.
+#[allow(clippy::too_many_arguments)]
+fn update_particles_from<B: Basis, S: ShapeSource>(
+    material: Material,
     basis: &B,
+    source: &S,
     grid: &Grid,
     particles: &mut Particles,
     velocity: &[f64],
     strain: Option<&[f64]>,
     dt: f64,
+) -> UpdateOutcome {
+    let kinematics = Kinematics {
+        basis,
+        source,
+        grid,
+        velocity,
+        strain,
+        dt,
+    };
+    with_fixed_support!(basis, N => match material {
+        Material::Linear(law) => update_particles::<B, S, _, N>(&kinematics, particles, law),
+        Material::Hill(law) => update_particles::<B, S, _, N>(&kinematics, particles, law),
+        Material::NeoHookean(law) => update_particles::<B, S, _, N>(&kinematics, particles, law),
+    })
+}
+
+/// What the particle update reads besides the particles.
+struct Kinematics<'a, B, S> {
+    basis: &'a B,
+    source: &'a S,
+    grid: &'a Grid,
+    velocity: &'a [f64],
+    strain: Option<&'a [f64]>,
+    dt: f64,
+}
+
+/// Steps 5–8 and the new cell of every particle. The strain increments are
+/// `dt dphi^T(x_p) v`, or `strain` when the mapping defines its own. Loops compiled for
+/// `N` functions per particle ([`Basis::eval_particle_n`]).
+fn update_particles<B: Basis, S: ShapeSource, L: ConstitutiveLaw, const N: usize>(
+    kinematics: &Kinematics<'_, B, S>,
+    particles: &mut Particles,
     law: L,
 ) -> UpdateOutcome {
+    let &Kinematics {
+        basis,
+        source,
+        grid,
+        velocity,
+        strain,
+        dt,
+    } = kinematics;
     let (v, mass) = (&particles.v, &particles.mass);
     let chunks = (
         particles.x.par_chunks_mut(PARTICLES_PER_TASK),
@@ -543,11 +709,12 @@ fn update_particles<B: Basis, L: ConstitutiveLaw>(
             let mut failure = None;
             let mut energies = [0.0; 2];
             for k in 0..x.len() {
-                basis.eval_particle(cell[k], x[k], 0.5 * volume[k], &mut shape);
-                let du = dt * shape.interpolate(velocity);
+                let p = start + k;
+                source.shape_of::<B, N>(basis, p, cell[k], x[k], 0.5 * volume[k], &mut shape);
+                let du = dt * shape.interpolate_n::<N>(velocity);
                 let deps = match strain {
                     Some(strain) => strain[start + k],
-                    None => dt * shape.gradient(velocity),
+                    None => dt * shape.gradient_n::<N>(velocity),
                 };
                 u[k] += du;
                 x[k] += du;

@@ -406,6 +406,7 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
         let outcome = update_particles_with(
             self.material.skeleton,
             basis,
+            None,
             &self.grid,
             particles,
             &solid.fields.velocity,

@@ -1,0 +1,202 @@
+//! The basis evaluated once per step at the particles, and read back by every pass at the
+//! same positions (measurements in `perf/README.md`).
+//!
+//! Within one 1D step the particles do not move until the last pass, yet four passes need
+//! `phi_i(x_p)` and `dphi_i(x_p)`: the mass and force scatter, the particle-velocity
+//! update, the momentum scatter and the particle update. For a basis whose evaluation costs
+//! more than reading it back ([`Basis::reuse_shapes`]: B-splines of order 2 and higher,
+//! GIMP, CPDI) a step fills a [`ShapeCache`] once and the passes take their shapes from it
+//! through the [`ShapeSource`] plug point; for the linear hat, recomputing is cheaper than
+//! the memory traffic, and the passes evaluate ([`Evaluate`]). Both sources give the same
+//! values bit for bit (the cache stores what the evaluation returned).
+//!
+//! Memory: `W` values and `W` gradients per particle, `W = Basis::max_window()`, plus the
+//! first DOF and the support size: `16 W + 9` bytes per particle (57 B for quadratic
+//! B-splines, 73 B for cubic ones and for 1D GIMP / CPDI, whose window is 4 nodes).
+
+use super::tensor::with_fixed_support;
+use super::{Basis, Shape};
+use rayon::prelude::*;
+
+/// Particles per rayon task of [`ShapeCache::fill`].
+const PARTICLES_PER_TASK: usize = 4096;
+
+/// Where a particle pass takes the shape of particle `p` from.
+pub trait ShapeSource: Sync {
+    /// The shape of particle `p` at `x` in `cell` with domain half-length `half_length`
+    /// ([`Basis::eval_particle_n`] with support `N`).
+    fn shape_of<B: Basis, const N: usize>(
+        &self,
+        basis: &B,
+        p: usize,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    );
+}
+
+/// Evaluate the basis in the pass itself.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Evaluate;
+
+impl ShapeSource for Evaluate {
+    #[inline(always)]
+    fn shape_of<B: Basis, const N: usize>(
+        &self,
+        basis: &B,
+        _p: usize,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    ) {
+        basis.eval_particle_n::<N>(cell, x, half_length, shape);
+    }
+}
+
+/// The shapes of all particles at their current positions, `W` slots each.
+#[derive(Clone, Debug, Default)]
+pub struct ShapeCache {
+    width: usize,
+    first: Vec<usize>,
+    len: Vec<u8>,
+    phi: Vec<f64>,
+    dphi: Vec<f64>,
+}
+
+impl ShapeCache {
+    /// Evaluate `basis` at every particle (`x`, its `cell`, half-length `volume / 2`), in
+    /// parallel; the buffers are reused from step to step.
+    ///
+    /// ```
+    /// use tlsmpm::grid::{Basis, BSplineBasis, Grid, Shape, ShapeCache, ShapeSource};
+    /// let grid = Grid::new(1.0, 4);
+    /// let basis = BSplineBasis::new(grid, 2).unwrap();
+    /// let (x, cell, volume) = ([0.1, 0.6], [0, 2], [0.1, 0.1]);
+    /// let mut cache = ShapeCache::default();
+    /// cache.fill(&basis, &x, &cell, &volume);
+    /// let (mut cached, mut direct) = (Shape::default(), Shape::default());
+    /// cache.shape_of::<_, 3>(&basis, 1, 2, 0.6, 0.05, &mut cached);
+    /// basis.eval(2, 0.6, &mut direct);
+    /// assert_eq!((cached.first, cached.phi, cached.dphi), (direct.first, direct.phi, direct.dphi));
+    /// ```
+    pub fn fill<B: Basis>(&mut self, basis: &B, x: &[f64], cell: &[usize], volume: &[f64]) {
+        with_fixed_support!(basis, N => self.fill_n::<B, N>(basis, x, cell, volume));
+    }
+
+    fn fill_n<B: Basis, const N: usize>(
+        &mut self,
+        basis: &B,
+        x: &[f64],
+        cell: &[usize],
+        volume: &[f64],
+    ) {
+        let n = x.len();
+        // A fixed support fills its `N` slots exactly (`N = p + 1 = max_window` for
+        // B-splines), so that reads index with the compile-time `N`.
+        let width = if N == 0 { basis.max_window() } else { N };
+        self.width = width;
+        self.first.resize(n, 0);
+        self.len.resize(n, 0);
+        self.phi.resize(n * width, 0.0);
+        self.dphi.resize(n * width, 0.0);
+        let block = PARTICLES_PER_TASK;
+        (
+            self.first.par_chunks_mut(block),
+            self.len.par_chunks_mut(block),
+            self.phi.par_chunks_mut(block * width),
+            self.dphi.par_chunks_mut(block * width),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(chunk, (first, len, phi, dphi))| {
+                let start = chunk * block;
+                let mut shape = Shape::default();
+                for k in 0..first.len() {
+                    let p = start + k;
+                    basis.eval_particle_n::<N>(cell[p], x[p], 0.5 * volume[p], &mut shape);
+                    let support = shape.support::<N>();
+                    first[k] = shape.first;
+                    len[k] = support as u8;
+                    let slots = k * width..k * width + support;
+                    phi[slots.clone()].copy_from_slice(&shape.phi[..support]);
+                    dphi[slots].copy_from_slice(&shape.dphi[..support]);
+                }
+            });
+    }
+
+    /// Bytes held per particle.
+    pub fn bytes_per_particle(&self) -> usize {
+        16 * self.width + std::mem::size_of::<usize>() + 1
+    }
+}
+
+impl ShapeSource for ShapeCache {
+    #[inline(always)]
+    fn shape_of<B: Basis, const N: usize>(
+        &self,
+        _basis: &B,
+        p: usize,
+        _cell: usize,
+        _x: f64,
+        _half_length: f64,
+        shape: &mut Shape,
+    ) {
+        shape.first = self.first[p];
+        if N == 0 {
+            let support = usize::from(self.len[p]);
+            let slots = p * self.width..p * self.width + support;
+            shape.len = support;
+            shape.phi[..support].copy_from_slice(&self.phi[slots.clone()]);
+            shape.dphi[..support].copy_from_slice(&self.dphi[slots]);
+        } else {
+            // Filled with the same `N`: `width == N` (see `fill_n`).
+            let slots = p * N..p * N + N;
+            shape.len = N;
+            shape.phi[..N].copy_from_slice(&self.phi[slots.clone()]);
+            shape.dphi[..N].copy_from_slice(&self.dphi[slots]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{BSplineBasis, CpdiBasis, Grid};
+    use proptest::prelude::*;
+
+    /// The cache returns bitwise what the evaluation returns, for fixed (B-spline) and
+    /// variable (CPDI) supports.
+    fn check<B: Basis>(basis: &B, grid: &Grid, x: &[f64], volume: &[f64]) {
+        let cell: Vec<usize> = x.iter().map(|&x| grid.cell_of(x).unwrap()).collect();
+        let mut cache = ShapeCache::default();
+        cache.fill(basis, x, &cell, volume);
+        for p in 0..x.len() {
+            let (mut cached, mut direct) = (Shape::default(), Shape::default());
+            cache.shape_of::<B, 0>(basis, p, cell[p], x[p], 0.5 * volume[p], &mut cached);
+            basis.eval_particle(cell[p], x[p], 0.5 * volume[p], &mut direct);
+            assert_eq!((cached.first, cached.len), (direct.first, direct.len));
+            let n = direct.len;
+            assert_eq!(cached.phi[..n], direct.phi[..n]);
+            assert_eq!(cached.dphi[..n], direct.dphi[..n]);
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn cached_shapes_equal_evaluated_ones(
+            cells in 1usize..30,
+            order in 1usize..6,
+            t in proptest::collection::vec(0.0f64..=1.0, 1..9000),
+            l in 0.0f64..1.5,
+        ) {
+            let grid = Grid::new(2.0, cells);
+            let x: Vec<f64> = t.iter().map(|t| t * grid.length).collect();
+            let volume = vec![2.0 * l * grid.h; x.len()];
+            check(&BSplineBasis::new(grid, order).unwrap(), &grid, &x, &volume);
+            check(&CpdiBasis::new(grid), &grid, &x, &volume);
+        }
+    }
+}
