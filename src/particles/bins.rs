@@ -25,6 +25,30 @@ impl CellBins {
         self.cell_start.len().saturating_sub(1)
     }
 
+    /// The bins of particles whose cells `cell` are already non-decreasing: `cell_start[e]`
+    /// is the first particle with `cell >= e`, found in one scan of the cell boundaries
+    /// (no counting, no permutation). The same bins as [`CellBins::sort`] gives for
+    /// sorted particles.
+    ///
+    /// ```
+    /// let mut bins = tlsmpm::particles::CellBins::default();
+    /// bins.rebuild_sorted(&[0, 0, 2, 2, 2, 3], 5);
+    /// assert_eq!(bins.cell_start, [0, 2, 2, 5, 6, 6]);
+    /// ```
+    pub fn rebuild_sorted(&mut self, cell: &[usize], cells: usize) {
+        debug_assert!(cell.windows(2).all(|w| w[0] <= w[1]));
+        self.cell_start.clear();
+        self.cell_start.resize(cells + 1, cell.len());
+        let mut next = 0;
+        for (p, &c) in cell.iter().enumerate() {
+            // Cells `next..=c` start at `p` (empty ones included).
+            if c >= next {
+                self.cell_start[next..=c].fill(p);
+                next = c + 1;
+            }
+        }
+    }
+
     /// Counting-sort `particles` by `particles.cell` into `cells` bins, permuting the
     /// particle arrays only when the order actually changed.
     pub fn sort(&mut self, particles: &mut Particles, cells: usize) {
@@ -72,5 +96,23 @@ mod tests {
         assert_eq!(p.id, vec![1, 7, 2, 3, 4, 5, 0, 6]);
         assert_eq!(p.x[1], 0.1);
         assert_eq!(bins.range(3), 6..8);
+    }
+
+    proptest::proptest! {
+        /// For particles in cell order, the boundary scan gives the counting sort's bins.
+        #[test]
+        fn boundary_scan_equals_counting_sort(
+            mut cell in proptest::collection::vec(0usize..12, 0..60),
+            extra in 0usize..4,
+        ) {
+            cell.sort_unstable();
+            let cells = 12 + extra;
+            let mut p = Particles::at_subcell_centres(&Grid::new(1.0, 1), cell.len(), 1.0);
+            p.cell.clone_from(&cell);
+            let (mut counted, mut scanned) = (CellBins::default(), CellBins::default());
+            counted.sort(&mut p, cells);
+            scanned.rebuild_sorted(&cell, cells);
+            proptest::prop_assert_eq!(counted.cell_start, scanned.cell_start);
+        }
     }
 }

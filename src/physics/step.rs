@@ -284,10 +284,8 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                 time,
             });
         }
-        if outcome.crossings > 0 {
-            // Cells changed: rebuild the bins. Without crossings they are still valid.
-            self.bins.sort(particles, self.grid.cells);
-        }
+        // Cells changed: rebuild the bins. Without crossings they are still valid.
+        outcome.rebin(&mut self.bins, particles, self.grid.cells);
         Ok(StepReport {
             mass_error,
             momentum_error,
@@ -568,8 +566,14 @@ pub(crate) enum Failure {
     LeftGrid,
 }
 
-/// Of one block of particles: crossings, first failure, `[kinetic, strain]` energy.
-type BlockOutcome = (usize, Option<(usize, Failure)>, [f64; 2]);
+/// Of one block of particles: crossings, first failure, `[kinetic, strain]` energy, and
+/// the block's new cells as `(first, last, non-decreasing within the block)`.
+type BlockOutcome = (
+    usize,
+    Option<(usize, Failure)>,
+    [f64; 2],
+    Option<(usize, usize, bool)>,
+);
 
 pub(crate) struct UpdateOutcome {
     pub(crate) crossings: usize,
@@ -578,6 +582,25 @@ pub(crate) struct UpdateOutcome {
     pub(crate) energies: (f64, f64),
     /// First failing particle (lowest index) and what failed.
     pub(crate) failure: Option<(usize, Failure)>,
+    /// Whether the particles are still sorted by their new cells, so that re-binning
+    /// needs no permutation ([`CellBins::rebuild_sorted`]).
+    pub(crate) sorted_by_cell: bool,
+}
+
+impl UpdateOutcome {
+    /// Re-bin `particles` after the update when cells changed: a scan of the cell
+    /// boundaries when they are still in cell order (always in 1D unless particles pass
+    /// each other), else the counting sort.
+    pub(crate) fn rebin(&self, bins: &mut CellBins, particles: &mut Particles, cells: usize) {
+        if self.crossings == 0 {
+            return;
+        }
+        if self.sorted_by_cell {
+            bins.rebuild_sorted(&particles.cell, cells);
+        } else {
+            bins.sort(particles, cells);
+        }
+    }
 }
 
 impl UpdateOutcome {
@@ -751,7 +774,12 @@ fn update_particles<B: Basis, S: ShapeSource, L: ConstitutiveLaw, const N: usize
                     _ => failure = failure.or(bad.map(|b| (start + k, b))),
                 }
             }
-            (crossings, failure, energies)
+            let cells = cell.first().zip(cell.last()).map(|(&first, &last)| {
+                // Without a crossing the block keeps its (sorted) cells.
+                let sorted = crossings == 0 || cell.windows(2).all(|w| w[0] <= w[1]);
+                (first, last, sorted)
+            });
+            (crossings, failure, energies, cells)
         })
         .collect();
     // Blocks in particle order: the first failure is the lowest index.
@@ -759,10 +787,13 @@ fn update_particles<B: Basis, S: ShapeSource, L: ConstitutiveLaw, const N: usize
     let failure = blocks.iter().find_map(|b| b.1);
     let energies: Vec<[f64; 2]> = blocks.iter().map(|b| b.2).collect();
     let [kinetic, strain] = sum_block_partials(&energies);
+    let ranges: Vec<(usize, usize, bool)> = blocks.iter().filter_map(|b| b.3).collect();
+    let sorted_by_cell = ranges.iter().all(|r| r.2) && ranges.windows(2).all(|w| w[0].1 <= w[1].0);
     UpdateOutcome {
         crossings,
         failure,
         energies: (kinetic, strain),
+        sorted_by_cell,
     }
 }
 

@@ -414,9 +414,7 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
             dt,
         );
         outcome.check(particles, step, time)?;
-        if outcome.crossings > 0 {
-            self.bins.sort(particles, self.grid.cells);
-        }
+        outcome.rebin(&mut self.bins, particles, self.grid.cells);
         Ok(StepReport {
             mass_error,
             momentum_error,
