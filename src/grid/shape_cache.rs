@@ -55,7 +55,9 @@ impl ShapeSource for Evaluate {
     }
 }
 
-/// The shapes of all particles at their current positions, `W` slots each.
+/// The shapes of all particles at their current positions, `W` slots each. Read it with
+/// the `N` it was filled with (the basis' fixed support, `with_fixed_support!`) or with
+/// `N = 0`.
 #[derive(Clone, Debug, Default)]
 pub struct ShapeCache {
     width: usize,
@@ -125,11 +127,6 @@ impl ShapeCache {
                 }
             });
     }
-
-    /// Bytes held per particle.
-    pub fn bytes_per_particle(&self) -> usize {
-        16 * self.width + std::mem::size_of::<usize>() + 1
-    }
 }
 
 impl ShapeSource for ShapeCache {
@@ -143,6 +140,10 @@ impl ShapeSource for ShapeCache {
         _half_length: f64,
         shape: &mut Shape,
     ) {
+        debug_assert!(
+            N == 0 || N == self.width,
+            "read with the support it was filled with"
+        );
         shape.first = self.first[p];
         if N == 0 {
             let support = usize::from(self.len[p]);

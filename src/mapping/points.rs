@@ -10,9 +10,11 @@
 //! M^C_ij  = sum_points w m_p phi_i(x) phi_j(x)
 //! ```
 //!
-//! A [`PointSet`] lists the points lying in each cell; the functions here evaluate the
-//! basis there (`Basis::eval_particle` with half-length `w V_p / 2`) and scatter through
-//! [`CellScatter`], so every point mapping is deterministic for any thread count.
+//! A [`PointSet`] lists the points lying in each cell; the functions here take the basis
+//! there (`Basis::eval_particle` with half-length `w V_p / 2`, or for the particles
+//! themselves the step's [`crate::grid::ShapeCache`]), in loops compiled for the basis'
+//! fixed support, and scatter through [`CellScatter`], so every point mapping is
+//! deterministic for any thread count.
 
 use super::scatter::add_outer;
 use super::{CellScatter, GridFields};

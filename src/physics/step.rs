@@ -13,7 +13,11 @@
 //! ```
 //! Bases that depend on the particle configuration (DDMPM) are updated from it before
 //! step 1, and particle-domain bases (GIMP, CPDI) are evaluated with `l_p = V_p / 2`;
-//! then the particles are re-binned (counting sort) and grid crossings counted. The
+//! then the particles are re-binned (a scan of the cell boundaries while they stay in cell
+//! order, else the counting sort) and grid crossings counted. The basis is evaluated at
+//! the particles once per step when that pays ([`Basis::reuse_shapes`], a
+//! [`ShapeCache`] read by every pass at the same positions), and the particle loops are
+//! compiled for the basis' fixed support. The
 //! conservation errors of the mapping are measured each step (SPEC §6): mass
 //! `|sum_i m_i - sum_p m_p| / sum_p m_p` after step 1; momentum, with
 //! `scale = sum_p m_p |v_p|`, the larger of the mapping error `|sum_i p_i - sum_p m_p v_p|`
