@@ -225,15 +225,15 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
     if let Some((x, y)) = &exact {
         series.push(Series {
             label: "exact",
-            x,
-            y,
+            x: x.into(),
+            y: y.into(),
             style: Style::Reference,
         });
     }
     series.extend(data.iter().map(|(label, x, y)| Series {
         label,
-        x,
-        y,
+        x: x.into(),
+        y: y.into(),
         style: match options.axis {
             Axis::MeshSize => Style::LinePoints,
             _ => Style::Points,

@@ -13,7 +13,7 @@ use crate::config::{Scenario, VelocityReference};
 use crate::error::{Error, Result};
 use crate::numerics::norms::{relative_l2, rms};
 use crate::output::csv::{write_history, write_particles, ExactColumn};
-use crate::output::plot::{profile_plot, semilogy_plot, Axes, Series, Style};
+use crate::output::plot::{profile_plot, semilogy_plot, Axes, Series, Style, Values};
 use crate::output::summary::{Conservation, Errors, SolverSummary};
 use crate::output::Summary;
 use crate::particles::Particles;
@@ -360,8 +360,8 @@ fn write_outputs(
     Ok(summary)
 }
 
-/// Particle order along the plot axis of `problem`, the sorted positions and the axis label.
-fn plot_positions(problem: &dyn Problem, p: &Particles) -> PlotPositions {
+/// Particle order along the plot axis of `problem`, and the axis label.
+fn plot_positions<'a>(problem: &dyn Problem, p: &'a Particles) -> PlotPositions<'a> {
     let (position, x_label) = match problem.plot_axis() {
         PlotAxis::Current => (&p.x, "x [m]"),
         PlotAxis::Initial => (&p.x0, "initial position X [m]"),
@@ -369,17 +369,43 @@ fn plot_positions(problem: &dyn Problem, p: &Particles) -> PlotPositions {
     let mut order: Vec<usize> = (0..p.len()).collect();
     // Stable: equal positions keep storage order, for any thread count.
     order.par_sort_by(|&a, &b| position[a].total_cmp(&position[b]));
-    let xs = order.par_iter().map(|&k| position[k]).collect();
-    PlotPositions { order, xs, x_label }
+    PlotPositions {
+        order,
+        position,
+        x_label,
+    }
 }
 
-/// Particles sorted along the plot axis (shared by every plot of a run).
-struct PlotPositions {
+/// Particles sorted along the plot axis (shared by every plot of a run). The plots read
+/// the particle arrays through `order` ([`Values::Computed`]): no sorted copy of a column
+/// is made, so plotting 1e7 particles costs the order (8 bytes a particle) and no more.
+struct PlotPositions<'a> {
     /// Storage indices in the order of the plot axis.
     order: Vec<usize>,
-    /// The sorted positions.
-    xs: Vec<f64>,
+    /// The positions along the plot axis, in storage order.
+    position: &'a [f64],
     x_label: &'static str,
+}
+
+impl PlotPositions<'_> {
+    /// The sorted position of the `i`-th particle along the plot axis.
+    fn x(&self, i: usize) -> f64 {
+        self.position[self.order[i]]
+    }
+
+    /// `values` read in the order of the plot axis.
+    fn sorted<'v>(&'v self, values: &'v [f64]) -> impl Fn(usize) -> f64 + Sync + 'v {
+        move |i| values[self.order[i]]
+    }
+}
+
+/// One field of the error profile: the particles' values, the exact ones (both in storage
+/// order) and `max_p |f_exact|` (1 where that is 0).
+struct ErrorField<'a> {
+    label: &'a str,
+    numerical: std::borrow::Cow<'a, [f64]>,
+    exact: &'a [f64],
+    scale: f64,
 }
 
 /// Error profile: `|f_p - f_exact(X_p)| / max_p |f_exact|` of every known field over the
@@ -392,28 +418,38 @@ fn error_plot(
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
-    let PlotPositions { order, xs, x_label } = positions;
-    let errors: Vec<(String, Vec<f64>)> = columns
+    let n = positions.order.len();
+    let fields: Vec<ErrorField> = columns
         .iter()
         .map(|(field, exact)| {
             let scale = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let scale = if scale > 0.0 { scale } else { 1.0 };
-            let num = numerical(p, *field);
-            let values = order
-                .par_iter()
-                .map(|&k| (num[k] - exact[k]).abs() / scale)
-                .collect();
-            (field.name().to_string(), values)
+            ErrorField {
+                label: field.name(),
+                numerical: numerical(p, *field),
+                exact,
+                scale: if scale > 0.0 { scale } else { 1.0 },
+            }
         })
         .collect();
+    let errors: Vec<_> = fields
+        .iter()
+        .map(|f| {
+            move |i: usize| {
+                let k = positions.order[i];
+                (f.numerical[k] - f.exact[k]).abs() / f.scale
+            }
+        })
+        .collect();
+    let x = |i: usize| positions.x(i);
     // Points, not lines: neighbouring particles' errors are not a curve (they alternate
     // in sign and size), and on the log axis 1e-3 and 1e-10 are both readable.
-    let series: Vec<Series> = errors
+    let series: Vec<Series> = fields
         .iter()
-        .map(|(label, values)| Series {
-            label,
-            x: xs,
-            y: values,
+        .zip(&errors)
+        .map(|(f, error)| Series {
+            label: f.label,
+            x: Values::Computed { len: n, at: &x },
+            y: Values::Computed { len: n, at: error },
             style: Style::Points,
         })
         .collect();
@@ -426,7 +462,7 @@ fn error_plot(
         path,
         &Axes {
             title: &title,
-            x_label,
+            x_label: positions.x_label,
             y_label: "relative error",
         },
         &series,
@@ -447,29 +483,34 @@ fn profile_of(
     columns: &[(Field, Vec<f64>)],
 ) -> Result<()> {
     let p = &simulation.particles;
-    let PlotPositions { order, xs, x_label } = positions;
+    let n = positions.order.len();
     let values = numerical(p, field);
-    let values: Vec<f64> = order.par_iter().map(|&k| values[k]).collect();
-    let exact: Option<Vec<f64>> = columns
-        .iter()
-        .find(|(f, _)| *f == field)
-        .map(|(_, values)| order.par_iter().map(|&k| values[k]).collect());
+    let numerical_at = positions.sorted(&values);
+    let exact = columns.iter().find(|(f, _)| *f == field);
+    let exact_at = exact.map(|(_, values)| positions.sorted(values));
+    let x = |i: usize| positions.x(i);
     let (basis, reconstruction) = simulation.stepper.method_names();
     let label = format!("{basis} / {reconstruction}");
     // The reference first, so that the particles are drawn over it.
     let mut series = Vec::new();
-    if let Some(exact) = &exact {
+    if let Some(exact_at) = &exact_at {
         series.push(Series {
             label: problem.reference_label(),
-            x: xs,
-            y: exact,
+            x: Values::Computed { len: n, at: &x },
+            y: Values::Computed {
+                len: n,
+                at: exact_at,
+            },
             style: Style::Reference,
         });
     }
     series.push(Series {
         label: &label,
-        x: xs,
-        y: &values,
+        x: Values::Computed { len: n, at: &x },
+        y: Values::Computed {
+            len: n,
+            at: &numerical_at,
+        },
         style: Style::Points,
     });
     let title = format!(
@@ -481,7 +522,7 @@ fn profile_of(
         path,
         &Axes {
             title: &title,
-            x_label,
+            x_label: positions.x_label,
             y_label,
         },
         &series,

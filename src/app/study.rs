@@ -203,16 +203,16 @@ fn convergence_plot(path: &Path, name: &str, rows: &[StudyRow]) -> Result<()> {
         .iter()
         .map(|(label, y)| Series {
             label,
-            x: &h,
-            y,
+            x: (&h).into(),
+            y: y.into(),
             style: Style::LinePoints,
         })
         .collect();
     let guides = slope_guides(&h, &data);
     series.extend(guides.iter().map(|(label, x, y)| Series {
         label,
-        x,
-        y,
+        x: x.into(),
+        y: y.into(),
         style: Style::Guide,
     }));
     let title = format!("{name}: convergence");

@@ -9,6 +9,7 @@ pub mod plot;
 pub mod rows;
 pub mod run_dir;
 pub mod scatter;
+pub mod series;
 pub mod summary;
 pub mod tensor_csv;
 pub mod thinning;

@@ -26,7 +26,8 @@
 use crate::error::{Error, Result};
 use crate::output::atomic::write_atomic;
 use crate::output::legend::{draw_legend, panel_width, LegendEntry, Marker, Sample};
-use crate::output::thinning::{thin_line, thin_points, MAX_MARKS};
+use crate::output::series::{bounds, prepare, Prepared};
+pub use crate::output::series::{Series, Style, Values};
 use plotters::backend::SVGBackend;
 use plotters::chart::ChartBuilder;
 use plotters::coord::combinators::{BindKeyPoints, IntoLogRange};
@@ -79,35 +80,6 @@ const LOG_PAD: f64 = 1.2;
 /// of plotters is not reliable with subnormal spans).
 const TINY: f64 = 1e-250;
 
-/// How a series is drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Style {
-    /// A polyline through the points, broken where a point is skipped.
-    Line,
-    /// An exact solution or reference: a thin dark line that takes no palette colour. Put
-    /// it first so that the other series are drawn over it.
-    Reference,
-    /// A guide line (e.g. a slope of a convergence plot): thin, grey, its label written at
-    /// its last point instead of in the legend.
-    Guide,
-    /// A small filled circle at each point.
-    Points,
-    /// A polyline with a filled circle at each point, in the same colour.
-    LinePoints,
-}
-
-/// One named data series.
-pub struct Series<'a> {
-    /// Legend text; an empty label leaves the series out of the legend.
-    pub label: &'a str,
-    /// Abscissae.
-    pub x: &'a [f64],
-    /// Ordinates; if `x` and `y` differ in length the extra values of the longer are ignored.
-    pub y: &'a [f64],
-    /// How the series is drawn.
-    pub style: Style,
-}
-
 /// Axis labels and title.
 pub struct Axes<'a> {
     /// Title above the plot (omitted if empty).
@@ -123,15 +95,15 @@ pub struct Axes<'a> {
 /// Non-finite points are skipped. Writes an SVG file to `path` atomically; fails with
 /// [`Error::WriteOutput`] if the data range cannot be represented or the file cannot be written.
 pub fn profile_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
-    let data = prepare(series, |v| v.is_finite(), |v| v.is_finite());
-    let (x_min, x_max) = bounds(&data, |p| p.0);
-    let (y_min, y_max) = bounds(&data, |p| p.1);
+    let finite = |v: f64| v.is_finite();
+    let extent = bounds(series, finite, finite);
+    let ((x_min, x_max), (y_min, y_max)) = (extent.x, extent.y);
     let x_range = linear_range(x_min, x_max)
         .ok_or_else(|| Error::write(path, "x data range too wide to plot"))?;
     let y_range = linear_range(y_min, y_max)
         .ok_or_else(|| Error::write(path, "y data range too wide to plot"))?;
-    let mut data = data;
-    thin(&mut data, x_range, y_range, |v| v, |v| v);
+    let to_pixel = pixel_map(x_range, y_range, |v| v, |v| v);
+    let data = prepare(series, &extent, finite, finite, to_pixel);
     let svg = render(
         axes,
         &data,
@@ -161,15 +133,14 @@ pub fn loglog_plot_ticked(
     x_ticks: &[f64],
 ) -> Result<()> {
     let positive = |v: f64| v.is_normal() && v > 0.0;
-    let data = prepare(series, positive, positive);
-    let (x_min, x_max) = bounds(&data, |p| p.0);
-    let (y_min, y_max) = bounds(&data, |p| p.1);
+    let extent = bounds(series, positive, positive);
+    let ((x_min, x_max), (y_min, y_max)) = (extent.x, extent.y);
     let x_range = log_range(x_min, x_max)
         .ok_or_else(|| Error::write(path, "x data spans too many decades to plot"))?;
     let y_range = log_range(y_min, y_max)
         .ok_or_else(|| Error::write(path, "y data spans too many decades to plot"))?;
-    let mut data = data;
-    thin(&mut data, x_range, y_range, f64::ln, f64::ln);
+    let to_pixel = pixel_map(x_range, y_range, f64::ln, f64::ln);
+    let data = prepare(series, &extent, positive, positive, to_pixel);
     let (mut x_bold, mut x_light) = log_ticks(x_range);
     if !x_ticks.is_empty() {
         // Only the given ticks and the powers of ten are labelled.
@@ -213,15 +184,15 @@ pub fn loglog_plot_ticked(
 /// Linear `x`, logarithmic `y` (e.g. the error at every particle against its position);
 /// non-positive and non-finite `y` are skipped, as in [`loglog_plot`].
 pub fn semilogy_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> {
-    let data = prepare(series, |v| v.is_finite(), |v| v.is_normal() && v > 0.0);
-    let (x_min, x_max) = bounds(&data, |p| p.0);
-    let (y_min, y_max) = bounds(&data, |p| p.1);
+    let (finite, positive) = (|v: f64| v.is_finite(), |v: f64| v.is_normal() && v > 0.0);
+    let extent = bounds(series, finite, positive);
+    let ((x_min, x_max), (y_min, y_max)) = (extent.x, extent.y);
     let x_range = linear_range(x_min, x_max)
         .ok_or_else(|| Error::write(path, "x data range too wide to plot"))?;
     let y_range = log_range(y_min, y_max)
         .ok_or_else(|| Error::write(path, "y data spans too many decades to plot"))?;
-    let mut data = data;
-    thin(&mut data, x_range, y_range, |v| v, f64::ln);
+    let to_pixel = pixel_map(x_range, y_range, |v| v, f64::ln);
+    let data = prepare(series, &extent, finite, positive, to_pixel);
     let (y_bold, y_light) = log_ticks(y_range);
     let svg = render(
         axes,
@@ -239,100 +210,24 @@ pub fn semilogy_plot(path: &Path, axes: &Axes, series: &[Series]) -> Result<()> 
     write_atomic(path, svg.as_bytes())
 }
 
-/// A series reduced to drawable points.
-struct Prepared {
-    /// Legend text with line breaks replaced by spaces.
-    label: String,
-    /// How the series is drawn.
-    style: Style,
-    /// Runs of consecutive valid points; a skipped point ends a run.
-    runs: Vec<Vec<(f64, f64)>>,
-}
-
-impl Prepared {
-    /// All points of all runs.
-    fn points(&self) -> impl Iterator<Item = &(f64, f64)> {
-        self.runs.iter().flatten()
-    }
-}
-
-/// Keep the points whose coordinates satisfy `valid_x` and `valid_y`, split into runs at
-/// the others.
-fn prepare(
-    series: &[Series],
-    valid_x: impl Fn(f64) -> bool,
-    valid_y: impl Fn(f64) -> bool,
-) -> Vec<Prepared> {
-    series
-        .iter()
-        .map(|s| {
-            let mut runs = Vec::new();
-            let mut run = Vec::new();
-            for (&x, &y) in s.x.iter().zip(s.y.iter()) {
-                if valid_x(x) && valid_y(y) {
-                    run.push((x, y));
-                } else if !run.is_empty() {
-                    runs.push(std::mem::take(&mut run));
-                }
-            }
-            if !run.is_empty() {
-                runs.push(run);
-            }
-            Prepared {
-                label: s.label.replace(['\n', '\r'], " "),
-                style: s.style,
-                runs,
-            }
-        })
-        .collect()
-}
-
 /// Approximate pixel size of the plotting area (the figure less margins and labels).
 const AREA: (f64, f64) = (690.0, 445.0);
 
-/// Thin every series of more than [`MAX_MARKS`] points to what the figure shows: lines by
-/// pixel column, points by pixel cell ([`crate::output::thinning`]). `scale_x` and
-/// `scale_y` map data to the axis scales (identity or ln).
-fn thin(
-    data: &mut [Prepared],
+/// The map from data to pixels of the plotting area for the axis ranges, through the axis
+/// scales `scale_x`, `scale_y` (identity or ln), used to thin the series.
+fn pixel_map(
     (x0, x1): (f64, f64),
     (y0, y1): (f64, f64),
     scale_x: impl Fn(f64) -> f64 + Copy,
     scale_y: impl Fn(f64) -> f64 + Copy,
-) {
+) -> impl Fn((f64, f64)) -> (f64, f64) + Copy {
     let (sx0, sx1, sy0, sy1) = (scale_x(x0), scale_x(x1), scale_y(y0), scale_y(y1));
-    let to_pixel = |(x, y): (f64, f64)| {
+    move |(x, y): (f64, f64)| {
         (
             (scale_x(x) - sx0) / (sx1 - sx0) * AREA.0,
             (scale_y(y) - sy0) / (sy1 - sy0) * AREA.1,
         )
-    };
-    for series in data {
-        if series.points().count() <= MAX_MARKS {
-            continue;
-        }
-        match series.style {
-            Style::Points => {
-                let all: Vec<(f64, f64)> = series.points().copied().collect();
-                series.runs = vec![thin_points(&all, to_pixel)];
-            }
-            Style::Line | Style::LinePoints | Style::Reference | Style::Guide => {
-                for run in &mut series.runs {
-                    *run = thin_line(run, to_pixel);
-                }
-            }
-        }
     }
-}
-
-/// Minimum and maximum of one coordinate over all points; `(+inf, -inf)` if there are none.
-fn bounds(data: &[Prepared], coord: impl Fn(&(f64, f64)) -> f64) -> (f64, f64) {
-    data.iter()
-        .flat_map(Prepared::points)
-        .map(coord)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        })
 }
 
 /// Axis range for a linear axis: the data range plus 5 % on each side, a zero (or tiny)
@@ -664,14 +559,14 @@ mod tests {
         let series = [
             Series {
                 label: "MPM & <TLS>",
-                x: &x,
-                y: &numeric,
+                x: (&x).into(),
+                y: (&numeric).into(),
                 style: Style::Points,
             },
             Series {
                 label: "exact",
-                x: &x,
-                y: &exact,
+                x: (&x).into(),
+                y: (&exact).into(),
                 style: Style::Line,
             },
         ];
@@ -703,14 +598,14 @@ mod tests {
         let series = [
             Series {
                 label: "RMS error",
-                x: &h,
-                y: &err,
+                x: (&h).into(),
+                y: (&err).into(),
                 style: Style::Points,
             },
             Series {
                 label: "O(h^2)",
-                x: &h,
-                y: &reference,
+                x: (&h).into(),
+                y: (&reference).into(),
                 style: Style::Line,
             },
         ];
@@ -748,8 +643,8 @@ mod tests {
                 "empty series",
                 vec![Series {
                     label: "empty",
-                    x: &[],
-                    y: &[],
+                    x: (&[]).into(),
+                    y: (&[]).into(),
                     style: Style::Line,
                 }],
             ),
@@ -757,8 +652,8 @@ mod tests {
                 "all nan",
                 vec![Series {
                     label: "nan",
-                    x: &nan,
-                    y: &nan,
+                    x: (&nan).into(),
+                    y: (&nan).into(),
                     style: Style::Points,
                 }],
             ),
@@ -766,8 +661,8 @@ mod tests {
                 "zero x range",
                 vec![Series {
                     label: "same x",
-                    x: &same_x,
-                    y: &ys,
+                    x: (&same_x).into(),
+                    y: (&ys).into(),
                     style: Style::Line,
                 }],
             ),
@@ -775,8 +670,8 @@ mod tests {
                 "zero x and y range",
                 vec![Series {
                     label: "same",
-                    x: &same_x,
-                    y: &same_x,
+                    x: (&same_x).into(),
+                    y: (&same_x).into(),
                     style: Style::Points,
                 }],
             ),
@@ -784,8 +679,8 @@ mod tests {
                 "mismatched lengths",
                 vec![Series {
                     label: "mismatch",
-                    x: &long,
-                    y: &ys,
+                    x: (&long).into(),
+                    y: (&ys).into(),
                     style: Style::Line,
                 }],
             ),
@@ -793,8 +688,8 @@ mod tests {
                 "single point",
                 vec![Series {
                     label: "one",
-                    x: &one,
-                    y: &one,
+                    x: (&one).into(),
+                    y: (&one).into(),
                     style: Style::Line,
                 }],
             ),
@@ -802,8 +697,8 @@ mod tests {
                 "all zero",
                 vec![Series {
                     label: "",
-                    x: &zeros,
-                    y: &zeros,
+                    x: (&zeros).into(),
+                    y: (&zeros).into(),
                     style: Style::Line,
                 }],
             ),
@@ -811,8 +706,8 @@ mod tests {
                 "subnormal",
                 vec![Series {
                     label: "tiny",
-                    x: &tiny,
-                    y: &tiny,
+                    x: (&tiny).into(),
+                    y: (&tiny).into(),
                     style: Style::Points,
                 }],
             ),
@@ -820,8 +715,8 @@ mod tests {
                 "huge",
                 vec![Series {
                     label: "huge",
-                    x: &huge,
-                    y: &huge,
+                    x: (&huge).into(),
+                    y: (&huge).into(),
                     style: Style::Line,
                 }],
             ),
@@ -829,8 +724,8 @@ mod tests {
                 "gap",
                 vec![Series {
                     label: "multi\nline",
-                    x: &gap,
-                    y: &long,
+                    x: (&gap).into(),
+                    y: (&long).into(),
                     style: Style::Line,
                 }],
             ),
@@ -878,8 +773,8 @@ mod tests {
         let x = [f64::MIN_POSITIVE, f64::MAX];
         let series = [Series {
             label: "wide",
-            x: &x,
-            y: &x,
+            x: (&x).into(),
+            y: (&x).into(),
             style: Style::Points,
         }];
         let result = loglog_plot(&path, &axes(), &series);
@@ -887,8 +782,8 @@ mod tests {
         let x = [1e-150, 1e150];
         let series = [Series {
             label: "wide",
-            x: &x,
-            y: &x,
+            x: (&x).into(),
+            y: (&x).into(),
             style: Style::Line,
         }];
         loglog_plot(&path, &axes(), &series).unwrap();
@@ -900,8 +795,8 @@ mod tests {
         let path = Path::new("/nonexistent-dir/plot.svg");
         let series = [Series {
             label: "a",
-            x: &[1.0, 2.0],
-            y: &[1.0, 2.0],
+            x: (&[1.0, 2.0]).into(),
+            y: (&[1.0, 2.0]).into(),
             style: Style::Line,
         }];
         let err = profile_plot(path, &axes(), &series).unwrap_err();

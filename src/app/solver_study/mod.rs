@@ -409,8 +409,8 @@ fn write_outputs(options: &SolverStudyOptions, rows: &[SolverStudyRow]) -> Resul
             .zip(&labels)
             .map(|((x, y), label)| Series {
                 label,
-                x,
-                y,
+                x: x.into(),
+                y: y.into(),
                 style: Style::LinePoints,
             })
             .collect();
