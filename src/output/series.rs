@@ -10,6 +10,7 @@
 //! order, as thinning a materialised copy would keep.
 
 use crate::output::thinning::{thin_points, LineThinner, MAX_MARKS};
+use rayon::prelude::*;
 
 /// The coordinates of one axis of a series.
 #[derive(Clone, Copy)]
@@ -131,41 +132,58 @@ pub(crate) struct Bounds {
     counts: Vec<usize>,
 }
 
+/// `(x range, y range, valid points)` of one series.
+type SeriesExtent = ((f64, f64), (f64, f64), usize);
+
 /// The [`Bounds`] of the points of all series whose coordinates satisfy `valid_x` and
-/// `valid_y` (one pass over each series).
+/// `valid_y` (one pass over each series, the series in parallel).
 pub(crate) fn bounds(
     series: &[Series],
-    valid_x: impl Fn(f64) -> bool,
-    valid_y: impl Fn(f64) -> bool,
+    valid_x: impl Fn(f64) -> bool + Sync,
+    valid_y: impl Fn(f64) -> bool + Sync,
 ) -> Bounds {
     let empty = (f64::INFINITY, f64::NEG_INFINITY);
+    // One task per series; then the series in order, so that the result is the one of a
+    // single pass over all points.
+    let per_series: Vec<SeriesExtent> = series
+        .par_iter()
+        .map(|s| {
+            let (mut x, mut y, mut count) = (empty, empty, 0);
+            for (px, py) in s.points().filter(|&(x, y)| valid_x(x) && valid_y(y)) {
+                widen(&mut x, px);
+                widen(&mut y, py);
+                count += 1;
+            }
+            (x, y, count)
+        })
+        .collect();
     let mut bounds = Bounds {
         x: empty,
         y: empty,
         counts: Vec::with_capacity(series.len()),
     };
-    for s in series {
-        let mut count = 0;
-        // Plain comparisons (a valid value is never NaN); of equal values (+0 and -0)
-        // the first stays.
-        for (x, y) in s.points().filter(|&(x, y)| valid_x(x) && valid_y(y)) {
-            if x < bounds.x.0 {
-                bounds.x.0 = x;
-            }
-            if x > bounds.x.1 {
-                bounds.x.1 = x;
-            }
-            if y < bounds.y.0 {
-                bounds.y.0 = y;
-            }
-            if y > bounds.y.1 {
-                bounds.y.1 = y;
-            }
-            count += 1;
+    for (x, y, count) in per_series {
+        if count > 0 {
+            widen(&mut bounds.x, x.0);
+            widen(&mut bounds.x, x.1);
+            widen(&mut bounds.y, y.0);
+            widen(&mut bounds.y, y.1);
         }
         bounds.counts.push(count);
     }
     bounds
+}
+
+/// Extend `range` to hold `v` (never NaN here): plain comparisons, so that of equal values
+/// (+0 and -0) the first one stays.
+#[inline]
+fn widen(range: &mut (f64, f64), v: f64) {
+    if v < range.0 {
+        range.0 = v;
+    }
+    if v > range.1 {
+        range.1 = v;
+    }
 }
 
 /// The valid points of every series, split into runs at the invalid ones; a series of more
@@ -175,13 +193,14 @@ pub(crate) fn bounds(
 pub(crate) fn prepare(
     series: &[Series],
     bounds: &Bounds,
-    valid_x: impl Fn(f64) -> bool + Copy,
-    valid_y: impl Fn(f64) -> bool + Copy,
-    to_pixel: impl Fn((f64, f64)) -> (f64, f64) + Copy,
+    valid_x: impl Fn(f64) -> bool + Copy + Sync,
+    valid_y: impl Fn(f64) -> bool + Copy + Sync,
+    to_pixel: impl Fn((f64, f64)) -> (f64, f64) + Copy + Sync,
 ) -> Vec<Prepared> {
     let valid = move |&(x, y): &(f64, f64)| valid_x(x) && valid_y(y);
+    // One task per series (each is prepared on its own; the order is kept).
     series
-        .iter()
+        .par_iter()
         .zip(&bounds.counts)
         .map(|(s, &count)| {
             let runs = if count <= MAX_MARKS {
@@ -253,4 +272,58 @@ fn runs_of(
         runs.push(builder.finish());
     }
     runs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Per-series bounds combined in order equal one pass over all points; empty and
+    /// all-invalid series count 0 and do not widen the range; counts skip invalid points.
+    #[test]
+    fn bounds_and_counts_equal_a_single_pass() {
+        let xs: [&[f64]; 4] = [
+            &[],
+            &[3.0, 1.0, 2.0, 7.0],
+            &[f64::NAN, -4.0, 0.5],
+            &[f64::NAN],
+        ];
+        let ys: [&[f64]; 4] = [&[], &[1.0, -2.0, 9.0], &[5.0, 6.0, f64::INFINITY], &[1.0]];
+        let series: Vec<Series> = xs
+            .iter()
+            .zip(&ys)
+            .map(|(x, y)| Series {
+                label: "",
+                x: Values::Stored(x),
+                y: Values::Stored(y),
+                style: Style::Points,
+            })
+            .collect();
+        let finite = |v: f64| v.is_finite();
+        let b = bounds(&series, finite, finite);
+        // Valid points: (3,1) (1,-2) (2,9) and (-4,6).
+        assert_eq!(b.x, (-4.0, 3.0));
+        assert_eq!(b.y, (-2.0, 9.0));
+        assert_eq!(b.counts, vec![0, 3, 1, 0]);
+        let none = bounds(&series[..1], finite, finite);
+        assert_eq!(none.x, (f64::INFINITY, f64::NEG_INFINITY));
+    }
+
+    /// Computed values are read through their function, truncated to the shorter axis.
+    #[test]
+    fn computed_series_read_through_the_order() {
+        let position = [0.3, 0.1, 0.2];
+        let order = [1usize, 2, 0];
+        let x = |i: usize| position[order[i]];
+        let series = Series {
+            label: "",
+            x: Values::Computed { len: 3, at: &x },
+            y: Values::Stored(&[1.0, 2.0]),
+            style: Style::Line,
+        };
+        assert_eq!(
+            series.points().collect::<Vec<_>>(),
+            vec![(0.1, 1.0), (0.2, 2.0)]
+        );
+    }
 }
