@@ -35,29 +35,28 @@ impl Shape {
     /// `sum_k phi_k g[first + k]`: interpolate a grid field.
     #[inline]
     pub fn interpolate(&self, grid_field: &[f64]) -> f64 {
-        let g = &grid_field[self.first..self.first + self.len];
-        self.phi[..self.len].iter().zip(g).map(|(p, v)| p * v).sum()
+        self.interpolate_n::<0>(grid_field)
     }
 
     /// [`Shape::interpolate`] over exactly `N` functions (`N = 0`: `len`), for shapes from
     /// [`Basis::eval_particle_n`]: the same operations in the same order, unrolled.
     #[inline(always)]
     pub fn interpolate_n<const N: usize>(&self, grid_field: &[f64]) -> f64 {
-        if N == 0 {
-            return self.interpolate(grid_field);
-        }
-        let g = &grid_field[self.first..self.first + N];
-        self.phi[..N].iter().zip(g).map(|(p, v)| p * v).sum()
+        self.dot_n::<N>(&self.phi, grid_field)
     }
 
     /// [`Shape::gradient`] over exactly `N` functions (`N = 0`: `len`).
     #[inline(always)]
     pub fn gradient_n<const N: usize>(&self, grid_field: &[f64]) -> f64 {
-        if N == 0 {
-            return self.gradient(grid_field);
-        }
-        let g = &grid_field[self.first..self.first + N];
-        self.dphi[..N].iter().zip(g).map(|(p, v)| p * v).sum()
+        self.dot_n::<N>(&self.dphi, grid_field)
+    }
+
+    /// `sum_k functions_k g[first + k]` over [`Self::support`] functions.
+    #[inline(always)]
+    fn dot_n<const N: usize>(&self, functions: &[f64; MAX_SUPPORT], grid_field: &[f64]) -> f64 {
+        let n = self.support::<N>();
+        let g = &grid_field[self.first..self.first + n];
+        functions[..n].iter().zip(g).map(|(p, v)| p * v).sum()
     }
 
     /// The number of functions a loop over a shape from [`Basis::eval_particle_n`] runs
@@ -74,12 +73,7 @@ impl Shape {
     /// `sum_k dphi_k g[first + k]`: the gradient of a grid field.
     #[inline]
     pub fn gradient(&self, grid_field: &[f64]) -> f64 {
-        let g = &grid_field[self.first..self.first + self.len];
-        self.dphi[..self.len]
-            .iter()
-            .zip(g)
-            .map(|(p, v)| p * v)
-            .sum()
+        self.gradient_n::<0>(grid_field)
     }
 }
 

@@ -36,6 +36,23 @@ use crate::particles::{CellBins, Particles};
 use crate::physics::{Body, Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
 
+/// Evaluate `$body` with `$source` bound to the step's [`ShapeCache`] (`Some`) or to
+/// [`Evaluate`] (`None`): the dispatch once per pass, each arm a monomorphised copy.
+macro_rules! with_shape_source {
+    ($shapes:expr, $source:ident => $body:expr) => {
+        match $shapes {
+            Some(cache) => {
+                let $source: &ShapeCache = cache;
+                $body
+            }
+            None => {
+                let $source = &Evaluate;
+                $body
+            }
+        }
+    };
+}
+
 /// Particles per rayon task in particle loops: one block of [`deterministic_sums`], so
 /// the bookkeeping sums folded into these loops (energies, particle momentum) are summed
 /// in the same order, with the same bits, as a separate deterministic pass would.
@@ -444,30 +461,9 @@ fn update_particle_velocities<B: Basis>(
     } = particles;
     // Non-finite solid velocities are reported by `update_particles`.
     let momentum = Some((&mass[..], momentum_of));
-    let (_, sums) = match shapes {
-        Some(shapes) => update_velocities_counting(
-            basis,
-            shapes,
-            x,
-            cell,
-            volume,
-            v,
-            acceleration,
-            dt,
-            momentum,
-        ),
-        None => update_velocities_counting(
-            basis,
-            &Evaluate,
-            x,
-            cell,
-            volume,
-            v,
-            acceleration,
-            dt,
-            momentum,
-        ),
-    };
+    let (_, sums) = with_shape_source!(shapes, source => with_fixed_support!(basis, N => {
+        update_velocities_n::<B, _, N>(basis, source, x, cell, volume, v, acceleration, dt, momentum)
+    }));
     sums
 }
 
@@ -482,42 +478,16 @@ pub(crate) fn update_velocities<B: Basis>(
     acceleration: &[f64],
     dt: f64,
 ) -> bool {
-    update_velocities_counting(
-        basis,
-        &Evaluate,
-        x,
-        cell,
-        volume,
-        velocity,
-        acceleration,
-        dt,
-        None,
-    )
+    with_fixed_support!(basis, N => update_velocities_n::<B, Evaluate, N>(
+        basis, &Evaluate, x, cell, volume, velocity, acceleration, dt, None
+    ))
     .0
 }
 
-/// [`update_velocities`], also returning `[sum_p m_p v_p, sum_p m_p |v_p|]` over the
-/// velocities `momentum_of` names when masses are given (zeros otherwise), summed per
-/// task block as [`deterministic_sums`] would.
-#[allow(clippy::too_many_arguments)]
-fn update_velocities_counting<B: Basis, S: ShapeSource>(
-    basis: &B,
-    source: &S,
-    x: &[f64],
-    cell: &[usize],
-    volume: &[f64],
-    velocity: &mut [f64],
-    acceleration: &[f64],
-    dt: f64,
-    momentum: Option<(&[f64], MomentumOf)>,
-) -> (bool, [f64; 2]) {
-    with_fixed_support!(basis, N => update_velocities_n::<B, S, N>(
-        basis, source, x, cell, volume, velocity, acceleration, dt, momentum
-    ))
-}
-
-/// [`update_velocities_counting`] with loops compiled for `N` functions per particle
-/// ([`Basis::eval_particle_n`]).
+/// [`update_velocities`] with the shapes from `source` and loops compiled for `N`
+/// functions per particle ([`Basis::eval_particle_n`]), also returning
+/// `[sum_p m_p v_p, sum_p m_p |v_p|]` over the velocities `momentum_of` names when masses
+/// are given (zeros otherwise), summed per task block as [`deterministic_sums`] would.
 #[allow(clippy::too_many_arguments)]
 fn update_velocities_n<B: Basis, S: ShapeSource, const N: usize>(
     basis: &B,
@@ -650,14 +620,9 @@ pub(crate) fn update_particles_with<B: Basis>(
     strain: Option<&[f64]>,
     dt: f64,
 ) -> UpdateOutcome {
-    match shapes {
-        Some(shapes) => update_particles_from(
-            material, basis, shapes, grid, particles, velocity, strain, dt,
-        ),
-        None => update_particles_from(
-            material, basis, &Evaluate, grid, particles, velocity, strain, dt,
-        ),
-    }
+    with_shape_source!(shapes, source => update_particles_from(
+        material, basis, source, grid, particles, velocity, strain, dt,
+    ))
 }
 
 /// [`update_particles`] with the shapes from `source`, dispatched on the law and the
