@@ -140,7 +140,7 @@ pub trait Basis: Sync + Send {
 
     /// `Some(n)` when every evaluation has exactly `n` non-zero functions (`Shape::len`),
     /// so that particle loops can be compiled for that support size; `None` (the default)
-    /// when it varies (GIMP, CPDI).
+    /// when it varies (DDMPM; GIMP and CPDI on grids of fewer than three cells).
     fn fixed_support(&self) -> Option<usize> {
         None
     }

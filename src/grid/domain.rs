@@ -77,10 +77,13 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
         LinearBasis::new(self.grid).eval(cell, x, shape);
     }
 
+    /// Every particle evaluation fills the cell's whole window ([`domain_window`]: four DOFs
+    /// on grids of three or more cells), the DOFs the domain does not reach with exact
+    /// zeros, so that the particle loops run over a support fixed at compile time.
     #[inline]
     fn eval_particle(&self, cell: usize, x: f64, half_length: f64, shape: &mut Shape) {
         let Some((x1, x2)) = clipped_domain(&self.grid, x, half_length) else {
-            return self.eval(cell, x, shape);
+            return self.eval_point_in_window(cell, x, shape);
         };
         let grid = &self.grid;
         let (first, len) = domain_window(grid, cell);
@@ -91,6 +94,28 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
             shape.phi[k] = W::weight(grid, node, x1, x2, inv_length, hat1, hat2);
             shape.dphi[k] = hat_mean_slope(grid, node, x1, x2) * inv_length;
         }
+        shape.first = first;
+        shape.len = len;
+    }
+
+    fn fixed_support(&self) -> Option<usize> {
+        (self.grid.cells + 1 >= DOMAIN_SUPPORT).then_some(DOMAIN_SUPPORT)
+    }
+}
+
+impl<W: DomainWeight> DomainBasis<W> {
+    /// The linear hat of a (numerically) point-sized domain, placed in the cell's window
+    /// with zeros on the window's other DOFs.
+    #[inline]
+    fn eval_point_in_window(&self, cell: usize, x: f64, shape: &mut Shape) {
+        LinearBasis::new(self.grid).eval(cell, x, shape);
+        let (first, len) = domain_window(&self.grid, cell);
+        let offset = shape.first - first;
+        let (phi, dphi) = ([shape.phi[0], shape.phi[1]], [shape.dphi[0], shape.dphi[1]]);
+        shape.phi[..len].fill(0.0);
+        shape.dphi[..len].fill(0.0);
+        shape.phi[offset..offset + 2].copy_from_slice(&phi);
+        shape.dphi[offset..offset + 2].copy_from_slice(&dphi);
         shape.first = first;
         shape.len = len;
     }
@@ -123,9 +148,22 @@ pub(crate) fn clipped_domain(grid: &Grid, x: f64, half_length: f64) -> Option<(f
     (x2 - x1 > 1e-12 * grid.h).then_some((x1, x2))
 }
 
-/// The DOF window of cell `cell` for a domain basis: `e - 1 ..= e + 2`, clipped.
+/// DOFs of the window of a domain basis on a grid of three or more cells.
+pub(crate) const DOMAIN_SUPPORT: usize = 4;
+
+/// The DOF window of cell `cell` for a domain basis: `e - 1 ..= e + 2`, shifted inwards at
+/// the two end cells so that it always holds [`DOMAIN_SUPPORT`] DOFs (the DOF it gains there
+/// lies two cells beyond any domain of the cell: weight 0); clipped on grids of one or two
+/// cells.
 #[inline]
 pub(crate) fn domain_window(grid: &Grid, cell: usize) -> (usize, usize) {
+    let dofs = grid.cells + 1;
+    if dofs >= DOMAIN_SUPPORT {
+        return (
+            cell.saturating_sub(1).min(dofs - DOMAIN_SUPPORT),
+            DOMAIN_SUPPORT,
+        );
+    }
     let first = cell.saturating_sub(1);
     let last = (cell + 2).min(grid.cells);
     (first, last + 1 - first)
@@ -149,8 +187,11 @@ mod tests {
         let (x1, x2) = clipped_domain(&grid, 0.5, 3.0).unwrap();
         assert!((x1 - 0.4).abs() < 1e-15 && (x2 - 0.6).abs() < 1e-15);
         assert_eq!(clipped_domain(&grid, 0.5, 0.0), None);
-        assert_eq!(domain_window(&grid, 0), (0, 3));
+        assert_eq!(domain_window(&grid, 0), (0, 4));
         assert_eq!(domain_window(&grid, 5), (4, 4));
-        assert_eq!(domain_window(&grid, 9), (8, 3));
+        assert_eq!(domain_window(&grid, 9), (7, 4));
+        let two = Grid::new(1.0, 2);
+        assert_eq!(domain_window(&two, 0), (0, 3));
+        assert_eq!(domain_window(&two, 1), (0, 3));
     }
 }
