@@ -4,7 +4,7 @@
 //! A run of 1e7 particles plots its profiles and error profiles over the particles sorted
 //! along the plot axis. With [`Values::Computed`] a series reads the particle arrays through
 //! that order (`x_i = position[order[i]]`, `y_i = error(order[i])`) instead of holding a
-//! sorted copy of each column, and [`prepare`] streams over the points, keeping only what
+//! sorted copy of each column, and `prepare` streams over the points, keeping only what
 //! the figure shows ([`crate::output::thinning`]): a plot costs no memory per particle
 //! beyond the order the caller sorts once. The kept points are the same, in the same
 //! order, as thinning a materialised copy would keep.

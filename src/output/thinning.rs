@@ -11,7 +11,8 @@
 //!   until at most [`MAX_MARKS`] remain. Overlapping markers are dropped; an isolated
 //!   point always stays.
 //!
-//! Series that already have at most [`MAX_MARKS`] points are not touched.
+//! The plots pass series of at most [`MAX_MARKS`] valid points through whole and call these
+//! only for longer ones (`crate::output::series`), which they stream over without a copy.
 
 use std::collections::HashSet;
 

@@ -236,7 +236,7 @@ impl MassSystem {
 /// Exact in exact arithmetic for any `v`; in floating point it differs from the product
 /// form by round-off of the same size. `O(n)` plus the eliminated rows, instead of a pass
 /// over every stored entry.
-pub fn momentum_imbalance(
+pub(crate) fn momentum_imbalance(
     matrix: &CsrMatrix,
     mass: &[f64],
     keep: &[bool],
