@@ -194,4 +194,39 @@ mod tests {
         assert_eq!(domain_window(&two, 0), (0, 3));
         assert_eq!(domain_window(&two, 1), (0, 3));
     }
+
+    /// Every particle evaluation has the fixed support, in the end cells and for a
+    /// point-sized domain too; the DOFs the domain does not reach get exactly +0.
+    #[test]
+    fn particle_shapes_fill_the_fixed_window() {
+        use crate::grid::{CpdiBasis, GimpBasis};
+        let grid = Grid::new(1.0, 5);
+        let cases = [
+            (0, 0.05, 0.04),
+            (0, 0.01, 0.0),
+            (4, 0.97, 0.05),
+            (4, 0.9, 0.0),
+            (2, 0.5, 0.1),
+        ];
+        for (cell, x, half) in cases {
+            let mut shapes = [Shape::default(), Shape::default()];
+            GimpBasis::new(grid).eval_particle(cell, x, half, &mut shapes[0]);
+            CpdiBasis::new(grid).eval_particle(cell, x, half, &mut shapes[1]);
+            for s in &shapes {
+                assert_eq!((s.first, s.len), domain_window(&grid, cell));
+                assert_eq!(s.len, 4);
+                let sum: f64 = s.phi[..4].iter().sum();
+                assert!((sum - 1.0).abs() < 1e-14, "{cell} {x} {half}: {sum}");
+                for k in 0..4 {
+                    let node_x = grid.cell_left(s.first + k);
+                    if (node_x - x).abs() >= grid.h + half.min(grid.h) {
+                        assert_eq!(s.phi[k].to_bits(), 0.0f64.to_bits(), "{cell} {x} node {k}");
+                        assert_eq!(s.dphi[k].to_bits(), 0.0f64.to_bits(), "{cell} {x} node {k}");
+                    }
+                }
+            }
+        }
+        assert_eq!(GimpBasis::new(grid).fixed_support(), Some(4));
+        assert_eq!(CpdiBasis::new(Grid::new(1.0, 2)).fixed_support(), None);
+    }
 }
