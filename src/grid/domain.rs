@@ -63,7 +63,7 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
     }
 
     fn max_window(&self) -> usize {
-        4.min(self.grid.cells + 1)
+        DOMAIN_SUPPORT.min(self.grid.cells + 1)
     }
 
     /// Two hats per node of the window and a division: dearer than a read back.
