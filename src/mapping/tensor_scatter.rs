@@ -23,6 +23,10 @@ use std::ops::Range;
 /// Aim for at least this many cells per task.
 const CELLS_PER_TASK: usize = 256;
 
+/// Keep at least this many tasks when tasks are widened to cut their halo (enough for 16
+/// threads with four tasks each).
+const MIN_TASKS: usize = 64;
+
 /// One task: its cells (a range of lexicographic cells = whole layers) and its nodes.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ScatterTask {
@@ -48,7 +52,7 @@ pub fn scatter_tasks<const D: usize, B: Basis>(
 ) -> Vec<ScatterTask> {
     let cells_per_layer = basis.grid.cells_per_layer();
     let layers = basis.grid.axes[D - 1].cells;
-    let layers_per_task = CELLS_PER_TASK.div_ceil(cells_per_layer).clamp(1, layers);
+    let layers_per_task = layers_per_task(basis, slack);
     let node_stride = basis.strides()[D - 1];
     let mut tasks = Vec::new();
     let mut offset = 0;
@@ -67,6 +71,23 @@ pub fn scatter_tasks<const D: usize, B: Basis>(
         start = end;
     }
     tasks
+}
+
+/// Layers of cells per task: at least [`CELLS_PER_TASK`] cells, and where a layer is
+/// large enough that this is a single layer (2D and 3D grids of hundreds of cells across),
+/// as many layers as the task's halo of nodes, so that the buffers (zeroed, filled and
+/// reduced in every scatter) hold at most twice the nodes the task owns, not `halo + 1`
+/// times; but never so many that fewer than [`MIN_TASKS`] tasks remain. The halo is the
+/// node layers a task's particles reach beyond its own cell layers: the support width of
+/// the last axis minus one, plus `slack` on either side. The partition depends only on the
+/// grid, the basis and `slack` (never on the thread count).
+fn layers_per_task<const D: usize, B: Basis>(basis: &TensorBasis<D, B>, slack: usize) -> usize {
+    let cells_per_layer = basis.grid.cells_per_layer();
+    let layers = basis.grid.axes[D - 1].cells;
+    let by_cells = CELLS_PER_TASK.div_ceil(cells_per_layer).clamp(1, layers);
+    let halo = basis.axis(D - 1).max_window().saturating_sub(1) + 2 * slack;
+    let by_halo = (2 * halo).min((layers / MIN_TASKS).max(by_cells));
+    by_cells.max(by_halo).clamp(1, layers)
 }
 
 impl<const W: usize> TensorScatter<W> {
