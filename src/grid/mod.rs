@@ -14,6 +14,7 @@ pub mod gimp;
 pub mod linear;
 pub mod shape_cache;
 pub mod tensor;
+pub mod tensor_shape_cache;
 
 pub use basis::{Basis, ParticleQuadrature, Shape, MAX_SUPPORT};
 pub use bspline::BSplineBasis;
@@ -23,6 +24,7 @@ pub use gimp::GimpBasis;
 pub use linear::LinearBasis;
 pub use shape_cache::{Evaluate, ShapeCache, ShapeSource};
 pub use tensor::{TensorBasis, TensorGrid, TensorShape};
+pub use tensor_shape_cache::{EvaluateTensor, ShapeSlots, TensorShapeCache, TensorShapeSource};
 
 /// A uniform 1D grid of `cells` cells of size `h` starting at `origin`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,7 +6,7 @@
 
 use super::tensor_direct::{TensorBody, TensorGridFields};
 use super::RemedyCounts;
-use crate::grid::{Basis, TensorBasis};
+use crate::grid::{Basis, TensorBasis, TensorShapeCache};
 use crate::linalg::CsrMatrix;
 use crate::particles::TensorParticles;
 
@@ -58,6 +58,13 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
     /// ([`super::tensor_scatter::TensorScatter::with_slack`]).
     fn bin_slack(&self) -> usize {
         0
+    }
+
+    /// The particles' shapes stored by the last [`TensorMapping::map_mass_and_force`] for
+    /// the later passes of the step ([`crate::grid::tensor_shape_cache`]), when the mapping
+    /// keeps them (default: `None`, the passes evaluate).
+    fn shapes(&self) -> Option<&TensorShapeCache<D>> {
+        None
     }
 
     /// Remedies of degenerate cell fits so far (reconstructions only).

@@ -15,7 +15,10 @@
 use super::tensor::TensorMapping;
 use super::tensor_scatter::TensorScatter;
 use crate::grid::tensor::with_fixed_support;
-use crate::grid::{Basis, TensorBasis, TensorShape};
+use crate::grid::{
+    Basis, EvaluateTensor, ShapeSlots, TensorBasis, TensorShape, TensorShapeCache,
+    TensorShapeSource,
+};
 use crate::particles::tensor::stress_index;
 use crate::particles::TensorParticles;
 use std::ops::Range;
@@ -62,10 +65,7 @@ pub fn half_lengths<const D: usize>(
     half_length0: &Option<[f64; D]>,
     p: usize,
 ) -> [f64; D] {
-    match half_length0 {
-        Some(l0) => std::array::from_fn(|a| l0[a] * particles.deformation_gradient[a][a][p].abs()),
-        None => [0.0; D],
-    }
+    half_lengths_of(half_length0, &particles.deformation_gradient, p)
 }
 
 /// The basis functions at particle `p` (its position, cell and domain), evaluated for
@@ -100,6 +100,9 @@ pub struct TensorDirectMapping<const D: usize> {
     /// bases.
     pub half_length0: Option<[f64; D]>,
     bin_slack: usize,
+    /// The shapes the mass and force scatter evaluates, kept for the later passes of the
+    /// step (bases that [`Basis::reuse_shapes`] with a fixed support), else `None`.
+    shapes: Option<TensorShapeCache<D>>,
 }
 
 impl<const D: usize> TensorDirectMapping<D> {
@@ -120,7 +123,17 @@ impl<const D: usize> TensorDirectMapping<D> {
             momentum: TensorScatter::with_slack(basis, slack),
             half_length0,
             bin_slack: slack,
+            shapes: (basis.axis(0).reuse_shapes() && basis.fixed_support().is_some())
+                .then(TensorShapeCache::default),
         }
+    }
+
+    /// The same mapping evaluating the basis in every pass instead of keeping the shapes of
+    /// the first ([`crate::grid::tensor_shape_cache`]): bitwise the same results, for
+    /// checks and measurements.
+    pub fn evaluating_every_pass(mut self) -> Self {
+        self.shapes = None;
+        self
     }
 
     /// `m_I` and `f_I = f_ext - f_int` into `fields.mass`, `fields.force`.
@@ -148,13 +161,30 @@ impl<const D: usize> TensorDirectMapping<D> {
         let strides = *basis.strides();
         let half0 = self.half_length0;
         let p = particles;
-        self.mass_force.scatter(
+        let tasks = self.mass_force.tasks().len();
+        // The shapes evaluated here are stored for the later passes of the step.
+        let slots: Vec<Option<ShapeSlots<'_, D>>> = match &mut self.shapes {
+            Some(cache) => {
+                cache.resize(p.len(), N);
+                cache
+                    .slots(&task_particles(self.mass_force.tasks(), cell_start))
+                    .into_iter()
+                    .map(Some)
+                    .collect()
+            }
+            None => (0..tasks).map(|_| None).collect(),
+        };
+        self.mass_force.scatter_with(
             cell_start,
+            slots,
             &mut fields.mass_force,
-            |range: Range<usize>, lo, local| {
+            |mut slots: Option<ShapeSlots<'_, D>>, range: Range<usize>, lo, local| {
                 let mut shape = TensorShape::<D>::default();
                 for k in range {
                     eval_at::<D, B, N>(basis, p, &half0, k, &mut shape);
+                    if let Some(slots) = &mut slots {
+                        slots.store::<N>(k, &shape);
+                    }
                     let (m, vol) = (p.mass[k], p.volume[k]);
                     let b = match body {
                         TensorBody::Uniform(b) => b,
@@ -224,21 +254,26 @@ impl<const D: usize> TensorDirectMapping<D> {
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
     ) {
-        let strides = *basis.strides();
-        let half0 = self.half_length0;
-        let p = particles;
-        self.momentum.scatter(
-            cell_start,
-            &mut fields.momentum,
-            |range: Range<usize>, lo, local| {
-                let mut shape = TensorShape::<D>::default();
-                for k in range {
-                    eval_at::<D, B, N>(basis, p, &half0, k, &mut shape);
-                    let mv: [f64; D] = std::array::from_fn(|a| p.mass[k] * p.v[a][k]);
-                    scatter_momentum::<D, N>(&shape, &strides, mv, lo, local);
-                }
-            },
-        );
+        match &self.shapes {
+            Some(cache) => map_momentum_from::<D, B, N, _>(
+                &mut self.momentum,
+                cache,
+                &self.half_length0,
+                basis,
+                particles,
+                cell_start,
+                fields,
+            ),
+            None => map_momentum_from::<D, B, N, _>(
+                &mut self.momentum,
+                &EvaluateTensor,
+                &self.half_length0,
+                basis,
+                particles,
+                cell_start,
+                fields,
+            ),
+        }
     }
 
     /// MUSL steps 3–4 fused: `v_p += dt sum_I phi_I a_I`, then `p_I = sum_p m_p v_p phi_I`
@@ -269,69 +304,139 @@ impl<const D: usize> TensorDirectMapping<D> {
         dt: f64,
         fields: &mut TensorGridFields<D>,
     ) -> [f64; 4] {
-        let strides = *basis.strides();
-        let half0 = self.half_length0;
-        // Each task owns the velocity chunks of its particles.
-        let ranges: Vec<Range<usize>> = self
-            .momentum
-            .tasks()
-            .iter()
-            .map(|t| cell_start[t.cells.start]..cell_start[t.cells.end])
-            .collect();
-        let TensorParticles {
-            x,
-            v,
-            mass,
-            deformation_gradient,
-            ..
-        } = particles;
-        let (x, mass, deformation_gradient) = (&*x, &*mass, &*deformation_gradient);
-        let mut sums = vec![[0.0; 4]; ranges.len()];
-        let states: Vec<_> = split_components(v, &ranges)
-            .into_iter()
-            .zip(sums.iter_mut())
-            .collect();
-        let acceleration = &fields.acceleration;
-        self.momentum.scatter_with(
-            cell_start,
-            states,
-            &mut fields.momentum,
-            |(v, sum): ([&mut [f64]; D], &mut [f64; 4]), range: Range<usize>, lo, local| {
-                let mut shape = TensorShape::<D>::default();
-                let start = range.start;
-                for k in range {
-                    let position: [f64; D] = std::array::from_fn(|a| x[a][k]);
-                    let cell = basis.grid.axis_cells(position);
-                    let half = match &half0 {
-                        Some(l0) => {
-                            std::array::from_fn(|a| l0[a] * deformation_gradient[a][a][k].abs())
-                        }
-                        None => [0.0; D],
-                    };
-                    basis.eval_particle_n::<N>(cell, position, half, &mut shape);
-                    let dv = shape.interpolate_n::<N>(&strides, acceleration);
-                    let mut mv = [0.0; D];
-                    let mut speed2 = 0.0;
-                    for a in 0..D {
-                        let velocity = &mut v[a][k - start];
-                        *velocity += dt * dv[a];
-                        mv[a] = mass[k] * *velocity;
-                        speed2 += *velocity * *velocity;
-                        sum[a] += mv[a];
-                    }
-                    sum[3] += mass[k] * speed2.sqrt();
-                    scatter_momentum::<D, N>(&shape, &strides, mv, lo, local);
-                }
-            },
-        );
-        let mut total = [0.0; 4];
-        for s in &sums {
-            for (t, s) in total.iter_mut().zip(s) {
-                *t += s;
-            }
+        let (scatter, half0) = (&mut self.momentum, &self.half_length0);
+        match &self.shapes {
+            Some(cache) => velocities_and_momentum::<D, B, N, _>(
+                scatter, cache, half0, basis, particles, cell_start, dt, fields,
+            ),
+            None => velocities_and_momentum::<D, B, N, _>(
+                scatter,
+                &EvaluateTensor,
+                half0,
+                basis,
+                particles,
+                cell_start,
+                dt,
+                fields,
+            ),
         }
-        total
     }
+}
+
+/// The particles of each scatter task (consecutive ranges from 0: the tasks' cells).
+fn task_particles(
+    tasks: &[super::tensor_scatter::ScatterTask],
+    cell_start: &[usize],
+) -> Vec<Range<usize>> {
+    tasks
+        .iter()
+        .map(|t| cell_start[t.cells.start]..cell_start[t.cells.end])
+        .collect()
+}
+
+/// [`half_lengths`] from the deformation gradients alone.
+#[inline(always)]
+pub fn half_lengths_of<const D: usize>(
+    half_length0: &Option<[f64; D]>,
+    deformation_gradient: &[[Vec<f64>; D]; D],
+    k: usize,
+) -> [f64; D] {
+    match half_length0 {
+        Some(l0) => std::array::from_fn(|a| l0[a] * deformation_gradient[a][a][k].abs()),
+        None => [0.0; D],
+    }
+}
+
+/// `p_I = sum_p m_p v_p phi_I` with the shapes of `source`.
+fn map_momentum_from<const D: usize, B: Basis, const N: usize, S: TensorShapeSource<D>>(
+    scatter: &mut TensorScatter<D>,
+    source: &S,
+    half_length0: &Option<[f64; D]>,
+    basis: &TensorBasis<D, B>,
+    particles: &TensorParticles<D>,
+    cell_start: &[usize],
+    fields: &mut TensorGridFields<D>,
+) {
+    let strides = *basis.strides();
+    let p = particles;
+    scatter.scatter(
+        cell_start,
+        &mut fields.momentum,
+        |range: Range<usize>, lo, local| {
+            let mut shape = TensorShape::<D>::default();
+            for k in range {
+                let half = half_lengths_of(half_length0, &p.deformation_gradient, k);
+                source.shape_of::<B, N>(basis, k, p.position(k), half, &mut shape);
+                let mv: [f64; D] = std::array::from_fn(|a| p.mass[k] * p.v[a][k]);
+                scatter_momentum::<D, N>(&shape, &strides, mv, lo, local);
+            }
+        },
+    );
+}
+
+/// MUSL steps 3–4 fused with the shapes of `source` (see
+/// [`TensorDirectMapping::update_velocities_and_map_momentum`]).
+#[allow(clippy::too_many_arguments)]
+fn velocities_and_momentum<const D: usize, B: Basis, const N: usize, S: TensorShapeSource<D>>(
+    scatter: &mut TensorScatter<D>,
+    source: &S,
+    half_length0: &Option<[f64; D]>,
+    basis: &TensorBasis<D, B>,
+    particles: &mut TensorParticles<D>,
+    cell_start: &[usize],
+    dt: f64,
+    fields: &mut TensorGridFields<D>,
+) -> [f64; 4] {
+    let strides = *basis.strides();
+    // Each task owns the velocity chunks of its particles.
+    let ranges = task_particles(scatter.tasks(), cell_start);
+    let TensorParticles {
+        x,
+        v,
+        mass,
+        deformation_gradient,
+        ..
+    } = particles;
+    let (x, mass, deformation_gradient) = (&*x, &*mass, &*deformation_gradient);
+    let mut sums = vec![[0.0; 4]; ranges.len()];
+    let states: Vec<_> = split_components(v, &ranges)
+        .into_iter()
+        .zip(sums.iter_mut())
+        .collect();
+    let acceleration = &fields.acceleration;
+    scatter.scatter_with(
+        cell_start,
+        states,
+        &mut fields.momentum,
+        |(v, sum): ([&mut [f64]; D], &mut [f64; 4]), range: Range<usize>, lo, local| {
+            let mut shape = TensorShape::<D>::default();
+            let start = range.start;
+            for k in range {
+                let position: [f64; D] = std::array::from_fn(|a| x[a][k]);
+                let half = half_lengths_of(half_length0, deformation_gradient, k);
+                source.shape_of::<B, N>(basis, k, position, half, &mut shape);
+                let dv = shape.interpolate_n::<N>(&strides, acceleration);
+                let mut mv = [0.0; D];
+                let mut speed2 = 0.0;
+                for a in 0..D {
+                    let velocity = &mut v[a][k - start];
+                    *velocity += dt * dv[a];
+                    mv[a] = mass[k] * *velocity;
+                    speed2 += *velocity * *velocity;
+                    sum[a] += mv[a];
+                }
+                sum[3] += mass[k] * speed2.sqrt();
+                scatter_momentum::<D, N>(&shape, &strides, mv, lo, local);
+            }
+        },
+    );
+    let mut total = [0.0; 4];
+    for s in &sums {
+        for (t, s) in total.iter_mut().zip(s) {
+            *t += s;
+        }
+    }
+    total
 }
 
 /// `local[I - lo] += m_p v_p phi_I` over the support of `shape`, sum-factorised: per row
@@ -391,6 +496,10 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
 
     fn bin_slack(&self) -> usize {
         self.bin_slack
+    }
+
+    fn shapes(&self) -> Option<&TensorShapeCache<D>> {
+        self.shapes.as_ref()
     }
 
     fn map_mass_and_force<B: Basis>(

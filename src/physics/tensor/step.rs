@@ -25,7 +25,7 @@ use crate::config::MassKind;
 use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::tensor::with_fixed_support;
-use crate::grid::{Basis, TensorBasis, TensorShape};
+use crate::grid::{Basis, EvaluateTensor, TensorBasis, TensorShape, TensorShapeSource};
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
@@ -211,28 +211,19 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             layer: &self.bin_layer,
             slack: self.mapping.bin_slack(),
         };
-        let outcome = with_fixed_support!(basis, N => match self.material {
-            TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor, N>(
-                basis,
-                half0,
-                bins,
-                particles,
-                velocity,
-                usl_acceleration,
-                dt,
-                law,
-            ),
-            TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor, N>(
-                basis,
-                half0,
-                bins,
-                particles,
-                velocity,
-                usl_acceleration,
-                dt,
-                law,
-            ),
-        });
+        let update = ParticleUpdate {
+            basis,
+            half_length0: half0,
+            bins,
+            velocity,
+            usl_acceleration,
+            dt,
+            material: self.material,
+        };
+        let outcome = match self.mapping.shapes() {
+            Some(cache) => update.run(cache, particles),
+            None => update.run(&EvaluateTensor, particles),
+        };
         if let Some((particle, field)) = outcome.failure {
             return Err(match field {
                 "volume" => Error::CollapsedVolume {
@@ -478,20 +469,57 @@ fn chunks_of<'a, const D: usize>(
         .collect()
 }
 
+/// The arguments of [`update_particles`] other than the particles and the shape source.
+struct ParticleUpdate<'a, const D: usize, B: Basis> {
+    basis: &'a TensorBasis<D, B>,
+    half_length0: &'a Option<[f64; D]>,
+    bins: Bins<'a>,
+    velocity: &'a [[f64; D]],
+    usl_acceleration: Option<&'a [[f64; D]]>,
+    dt: f64,
+    material: TensorMaterial,
+}
+
+impl<const D: usize, B: Basis> ParticleUpdate<'_, D, B> {
+    /// [`update_particles`] compiled for the basis' support and the law (one dispatch).
+    fn run<S: TensorShapeSource<D>>(
+        &self,
+        source: &S,
+        particles: &mut TensorParticles<D>,
+    ) -> Outcome {
+        let u = self;
+        with_fixed_support!(u.basis, N => match u.material {
+            TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor, N, S>(
+                u, source, particles, law,
+            ),
+            TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor, N, S>(
+                u, source, particles, law,
+            ),
+        })
+    }
+}
+
 /// Steps 4–5 and the new cells (see the module doc); with `usl_acceleration` also
 /// `v_p += dt phi^T a`. Parallel over fixed chunks of particles, each task writing only
 /// its own chunk.
-#[allow(clippy::too_many_arguments)]
-fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
-    basis: &TensorBasis<D, B>,
-    half_length0: &Option<[f64; D]>,
-    bins: Bins<'_>,
+fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize, S>(
+    update: &ParticleUpdate<'_, D, B>,
+    source: &S,
     particles: &mut TensorParticles<D>,
-    velocity: &[[f64; D]],
-    usl_acceleration: Option<&[[f64; D]]>,
-    dt: f64,
     law: L,
-) -> Outcome {
+) -> Outcome
+where
+    S: TensorShapeSource<D>,
+{
+    let ParticleUpdate {
+        basis,
+        half_length0,
+        bins,
+        velocity,
+        usl_acceleration,
+        dt,
+        ..
+    } = *update;
     let live = live_stress_components(D);
     let n = particles.len();
     let strides = *basis.strides();
@@ -520,8 +548,7 @@ fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize>(
                     Some(l0) => std::array::from_fn(|a| l0[a] * f_old[a][a].abs()),
                     None => [0.0; D],
                 };
-                let cell = grid.axis_cells(x);
-                basis.eval_particle_n::<N>(cell, x, half, &mut shape);
+                source.shape_of::<B, N>(basis, k, x, half, &mut shape);
                 let (v_grid, l) = shape.interpolate_with_gradient_n::<N>(&strides, velocity);
                 if let Some(a) = usl_acceleration {
                     let dv = shape.interpolate_n::<N>(&strides, a);
