@@ -75,12 +75,13 @@ pub fn scatter_tasks<const D: usize, B: Basis>(
 
 /// Layers of cells per task: at least [`CELLS_PER_TASK`] cells, and where a layer is
 /// large enough that this is a single layer (2D and 3D grids of hundreds of cells across),
-/// as many layers as the task's halo of nodes, so that the buffers (zeroed, filled and
-/// reduced in every scatter) hold at most twice the nodes the task owns, not `halo + 1`
-/// times; but never so many that fewer than [`MIN_TASKS`] tasks remain. The halo is the
-/// node layers a task's particles reach beyond its own cell layers: the support width of
-/// the last axis minus one, plus `slack` on either side. The partition depends only on the
-/// grid, the basis and `slack` (never on the thread count).
+/// twice as many layers as the task's halo of nodes, so that the buffers (zeroed, filled
+/// and reduced in every scatter) hold `(layers + halo) / layers` = 1.5 times the node
+/// layers the task owns, not `halo + 1` times; but never so many that fewer than
+/// [`MIN_TASKS`] tasks remain (then the buffers hold more). The halo is the node layers a
+/// task's particles reach beyond its own cell layers: the support width of the last axis
+/// minus one, plus `slack` on either side. The partition depends only on the grid, the
+/// basis and `slack` (never on the thread count).
 fn layers_per_task<const D: usize, B: Basis>(basis: &TensorBasis<D, B>, slack: usize) -> usize {
     let cells_per_layer = basis.grid.cells_per_layer();
     let layers = basis.grid.axes[D - 1].cells;
