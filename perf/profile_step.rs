@@ -3,12 +3,14 @@
 //! ```text
 //! cargo run --release --example profile_step -- --particles 1000000 --steps 200
 //! cargo run --release --example profile_step -- --particles 120000 --steps 2000 --out /tmp/fg.svg
+//! cargo run --release --example profile_step -- --basis bspline --order 2 --out /tmp/fg_p2.svg
 //! cargo run --release --example profile_step -- --dim 2 --cells 128 --solver kron --steps 50
 //! ```
 //!
 //! `--dim 1` (default): `--steps` steps of the vibrating bar
 //! (`scenarios/vibrating_bar.toml`: linear basis, lumped mass, MUSL, 12 particles per cell,
-//! `dt = 1e-7`) with about `--particles` particles. `--dim 2 | 3`: the axis-aligned
+//! `dt = 1e-7`) with about `--particles` particles, or with `--basis` (`bspline` of
+//! `--order`, `gimp`, `cpdi`, ...) instead of the linear one. `--dim 2 | 3`: the axis-aligned
 //! manufactured solution (`scenarios/axis_aligned_mms.toml`) on `--cells` cells per axis
 //! with `--per-cell` particles per cell, B-splines of `--order`, TLS
 //! (`--reconstruction none` for plain B-spline MPM) and the consistent mass solved with
@@ -49,17 +51,18 @@ mod profile {
 
     pub const USAGE: &str = "\
 usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
-                    [--cells n] [--per-cell k] [--order p] [--reconstruction tls|none]
+                    [--basis B] [--order p] [--cells n] [--per-cell k] [--order p] [--reconstruction tls|none]
                     [--mass consistent|lumped] [--solver kron|pmg_cg|pmg|cg|pcg|direct]
 
   --dim D          1: the vibrating bar (default); 2, 3: the axis-aligned MMS
   --particles N    1D: particles, rounded down to a multiple of 12 (default 1000000)
   --steps S        time steps to profile (default 200 in 1D, 20 in 2D/3D, at least 1)
   --out FILE       flamegraph SVG to write (default perf/flamegraph_step[_2d|_3d].svg)
+  --basis B        method.basis (1D default: the scenario's linear; 2D/3D: bspline)
+  --order p        B-spline order (default 2; for --basis bspline in 1D)
   2D/3D only:
   --cells n        cells per axis (default 500 in 2D, 50 in 3D)
   --per-cell k     particles per cell, a perfect square / cube (default 4 in 2D, 8 in 3D)
-  --order p        B-spline order (default 2)
   --reconstruction tls (default) or none
   --mass           consistent (default; method.mass) or lumped
   --solver K       solver.kind of the consistent mass (default: the 2D/3D default)
@@ -75,6 +78,7 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
         pub cells: Option<usize>,
         pub per_cell: Option<usize>,
         pub order: usize,
+        pub basis: Option<String>,
         pub reconstruction: String,
         pub mass: String,
         pub solver: Option<String>,
@@ -91,6 +95,7 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
                 cells: None,
                 per_cell: None,
                 order: 2,
+                basis: None,
                 reconstruction: "tls".into(),
                 mass: "consistent".into(),
                 solver: None,
@@ -103,6 +108,7 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
                 "--cells",
                 "--per-cell",
                 "--order",
+                "--basis",
                 "--reconstruction",
                 "--mass",
                 "--solver",
@@ -127,6 +133,7 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
                     "--cells" => options.cells = Some(common::count(flag, &value)?),
                     "--per-cell" => options.per_cell = Some(common::count(flag, &value)?),
                     "--order" => options.order = common::count(flag, &value)?,
+                    "--basis" => options.basis = Some(value),
                     "--reconstruction" => match value.as_str() {
                         "tls" | "none" => options.reconstruction = value,
                         _ => return Err(format!("`--reconstruction {value}`: tls or none")),
@@ -161,18 +168,26 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
     fn run_bar(options: &Options) -> Result<(), String> {
         let cells = options.particles / PER_CELL;
         let steps = options.steps.unwrap_or(200);
-        let overrides = [
+        let mut overrides = vec![
             format!("grid.cells={cells}"),
             format!("particles.per_cell={PER_CELL}"),
             "time.dt=1.0e-7".to_string(),
         ];
+        if let Some(basis) = &options.basis {
+            overrides.push(format!("method.basis=\"{basis}\""));
+            if basis == "bspline" {
+                overrides.push(format!("method.order={}", options.order));
+            }
+        }
         let scenario = tlsmpm::config::from_str(SCENARIO, "vibrating_bar.toml", &overrides)
             .map_err(|e| e.to_string())?;
         let (problem, mut sim) = build_simulation(&scenario, false).map_err(|e| e.to_string())?;
         let particles = sim.particles.len();
         let threads = rayon::current_num_threads();
+        let basis = options.basis.as_deref().unwrap_or("linear");
         println!(
-            "profiling {steps} steps, {particles} particles on {cells} cells, {threads} rayon threads"
+            "profiling {steps} steps, {particles} particles on {cells} cells ({basis}), \
+             {threads} rayon threads"
         );
 
         let guard = common::start_profiler()?;
@@ -222,6 +237,10 @@ usage: profile_step [--dim 1|2|3] [--particles N] [--steps S] [--out FILE]
             format!("grid.cells={cells}"),
             format!("particles.per_cell={per_cell}"),
             format!("method.order={}", options.order),
+            format!(
+                "method.basis=\"{}\"",
+                options.basis.as_deref().unwrap_or("bspline")
+            ),
             format!("method.reconstruction={}", options.reconstruction),
             format!("method.mass={}", options.mass),
             format!("time.dt={dt:e}"),

@@ -68,9 +68,45 @@ impl Grid {
     #[inline]
     pub fn cell_of(&self, x: f64) -> Option<usize> {
         let xi = (x - self.origin) * self.inv_h;
-        if xi.is_nan() || xi < 0.0 || xi > self.cells as f64 {
+        // One comparison pair also rejects NaN; the cell count and the in-range `xi`
+        // convert through `i64` (one instruction each) rather than `u64` (a fix-up
+        // sequence on x86-64): the same cell.
+        let cells = self.cells as i64;
+        if !(xi >= 0.0 && xi <= cells as f64) {
             return None;
         }
-        Some((xi as usize).min(self.cells - 1))
+        Some((xi as i64).min(cells - 1) as usize)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Grid;
+    use proptest::prelude::*;
+
+    /// `cell_of` as the definition reads: `floor((x - origin) / h)` clamped to the last
+    /// cell on the right end, `None` outside `[origin, origin + length]` and for NaN.
+    fn cell_by_definition(g: &Grid, x: f64) -> Option<usize> {
+        let xi = (x - g.origin) * g.inv_h;
+        if xi.is_nan() || xi < 0.0 || xi > g.cells as f64 {
+            return None;
+        }
+        Some((xi.floor() as usize).min(g.cells - 1))
+    }
+
+    proptest! {
+        #[test]
+        fn cell_of_is_the_floor_of_the_scaled_coordinate(
+            cells in 1usize..100_000,
+            length in 0.01f64..100.0,
+            t in -0.1f64..1.1,
+        ) {
+            let g = Grid::new(length, cells);
+            let x = t * length;
+            prop_assert_eq!(g.cell_of(x), cell_by_definition(&g, x));
+            for edge in [0.0, length, -0.0, f64::NAN, f64::INFINITY, -f64::INFINITY] {
+                prop_assert_eq!(g.cell_of(edge), cell_by_definition(&g, edge));
+            }
+        }
     }
 }
