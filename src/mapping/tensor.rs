@@ -62,10 +62,17 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
 
     /// The particles' shapes stored by the last [`TensorMapping::map_mass_and_force`] for
     /// the later passes of the step ([`crate::grid::tensor_shape_cache`]), when the mapping
-    /// keeps them (default: `None`, the passes evaluate).
+    /// keeps them and [`TensorMapping::forget_shapes`] has not been called since (default:
+    /// `None`, the passes evaluate). [`TensorMapping::map_momentum`] and
+    /// [`TensorMapping::update_velocities_and_map_momentum`] read them too: between the
+    /// mass and force map and `forget_shapes` the particles must not move.
     fn shapes(&self) -> Option<&TensorShapeCache<D>> {
         None
     }
+
+    /// The particles are about to move (the particle update of a step): the stored shapes
+    /// are stale from here until the next [`TensorMapping::map_mass_and_force`].
+    fn forget_shapes(&mut self) {}
 
     /// Remedies of degenerate cell fits so far (reconstructions only).
     fn remedies(&self) -> RemedyCounts {

@@ -103,6 +103,9 @@ pub struct TensorDirectMapping<const D: usize> {
     /// The shapes the mass and force scatter evaluates, kept for the later passes of the
     /// step (bases that [`Basis::reuse_shapes`] with a fixed support), else `None`.
     shapes: Option<TensorShapeCache<D>>,
+    /// Whether `shapes` holds the particles' current shapes: set by the mass and force
+    /// scatter, cleared by [`TensorMapping::forget_shapes`] once the particles move.
+    shapes_current: bool,
 }
 
 impl<const D: usize> TensorDirectMapping<D> {
@@ -125,6 +128,7 @@ impl<const D: usize> TensorDirectMapping<D> {
             bin_slack: slack,
             shapes: (basis.axis(0).reuse_shapes() && basis.fixed_support().is_some())
                 .then(TensorShapeCache::default),
+            shapes_current: false,
         }
     }
 
@@ -136,7 +140,14 @@ impl<const D: usize> TensorDirectMapping<D> {
         self
     }
 
-    /// `m_I` and `f_I = f_ext - f_int` into `fields.mass`, `fields.force`.
+    /// The shapes stored by the last mass and force scatter, while the particles have not
+    /// moved since (see [`TensorMapping::shapes`]).
+    fn current_shapes(&self) -> Option<&TensorShapeCache<D>> {
+        self.shapes.as_ref().filter(|_| self.shapes_current)
+    }
+
+    /// `m_I` and `f_I = f_ext - f_int` into `fields.mass`, `fields.force`. Keeps the
+    /// particles' shapes for the later passes of the step where the basis is worth it.
     pub fn map_mass_and_force<B: Basis>(
         &mut self,
         basis: &TensorBasis<D, B>,
@@ -163,6 +174,7 @@ impl<const D: usize> TensorDirectMapping<D> {
         let p = particles;
         let tasks = self.mass_force.tasks().len();
         // The shapes evaluated here are stored for the later passes of the step.
+        self.shapes_current = self.shapes.is_some();
         let slots: Vec<Option<ShapeSlots<'_, D>>> = match &mut self.shapes {
             Some(cache) => {
                 cache.resize(p.len(), N);
@@ -254,7 +266,7 @@ impl<const D: usize> TensorDirectMapping<D> {
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
     ) {
-        match &self.shapes {
+        match self.shapes.as_ref().filter(|_| self.shapes_current) {
             Some(cache) => map_momentum_from::<D, B, N, _>(
                 &mut self.momentum,
                 cache,
@@ -305,7 +317,7 @@ impl<const D: usize> TensorDirectMapping<D> {
         fields: &mut TensorGridFields<D>,
     ) -> [f64; 4] {
         let (scatter, half0) = (&mut self.momentum, &self.half_length0);
-        match &self.shapes {
+        match self.shapes.as_ref().filter(|_| self.shapes_current) {
             Some(cache) => velocities_and_momentum::<D, B, N, _>(
                 scatter, cache, half0, basis, particles, cell_start, dt, fields,
             ),
@@ -499,7 +511,11 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
     }
 
     fn shapes(&self) -> Option<&TensorShapeCache<D>> {
-        self.shapes.as_ref()
+        self.current_shapes()
+    }
+
+    fn forget_shapes(&mut self) {
+        self.shapes_current = false;
     }
 
     fn map_mass_and_force<B: Basis>(
@@ -534,5 +550,64 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
         TensorDirectMapping::update_velocities_and_map_momentum(
             self, basis, particles, cell_start, dt, fields,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{BSplineBasis, TensorGrid};
+
+    /// Quadratic B-splines on 6 x 6 cells, 4 particles in each of a few cells, moving.
+    fn setup() -> (TensorBasis<2, BSplineBasis>, TensorParticles<2>, Vec<usize>) {
+        let grid = TensorGrid::new([1.0, 1.0], [6, 6]);
+        let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, 2).expect("order 2"));
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for j in 0..6 {
+            for i in 0..6 {
+                x.push(0.3 + 0.07 * i as f64);
+                y.push(0.25 + 0.09 * j as f64);
+            }
+        }
+        let volume = vec![1e-3; x.len()];
+        let mut particles =
+            TensorParticles::at_rest([x, y], volume, 1.0, |p| grid.cell_of(p).unwrap_or(0));
+        for k in 0..particles.len() {
+            particles.v[0][k] = 1.0 + 0.1 * k as f64;
+            particles.v[1][k] = -0.5;
+        }
+        let (mut cell_start, mut order) = (Vec::new(), Vec::new());
+        particles.sort_by_cell(grid.num_cells(), &mut cell_start, &mut order);
+        (basis, particles, cell_start)
+    }
+
+    #[test]
+    fn shapes_are_read_back_only_until_they_are_forgotten() {
+        let (basis, mut particles, cell_start) = setup();
+        let mut kept = TensorDirectMapping::new(&basis, None);
+        let mut evaluated = TensorDirectMapping::new(&basis, None).evaluating_every_pass();
+        let mut fields = TensorGridFields::<2>::new(basis.num_dofs());
+        let body = TensorBody::Uniform([0.0, -9.81]);
+        kept.map_mass_and_force(&basis, &particles, &cell_start, body, &mut fields);
+        assert!(TensorMapping::shapes(&kept).is_some());
+        // The particles move within their cells (bins stay valid); the kept shapes are now
+        // stale, and after `forget_shapes` the momentum map must evaluate again.
+        for k in 0..particles.len() {
+            particles.x[0][k] += 0.01;
+        }
+        kept.forget_shapes();
+        assert!(TensorMapping::shapes(&kept).is_none());
+        let mut expected = TensorGridFields::<2>::new(basis.num_dofs());
+        evaluated.map_momentum(&basis, &particles, &cell_start, &mut expected);
+        kept.map_momentum(&basis, &particles, &cell_start, &mut fields);
+        assert_eq!(fields.momentum, expected.momentum);
+        // And before the move, the kept shapes give the evaluation's momentum bit for bit.
+        for k in 0..particles.len() {
+            particles.x[0][k] -= 0.01;
+        }
+        kept.map_mass_and_force(&basis, &particles, &cell_start, body, &mut fields);
+        evaluated.map_momentum(&basis, &particles, &cell_start, &mut expected);
+        kept.map_momentum(&basis, &particles, &cell_start, &mut fields);
+        assert_eq!(fields.momentum, expected.momentum);
     }
 }

@@ -224,6 +224,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             Some(cache) => update.run(cache, particles),
             None => update.run(&EvaluateTensor, particles),
         };
+        self.mapping.forget_shapes();
         if let Some((particle, field)) = outcome.failure {
             return Err(match field {
                 "volume" => Error::CollapsedVolume {
