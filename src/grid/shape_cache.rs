@@ -18,6 +18,26 @@ use super::tensor::with_fixed_support;
 use super::{Basis, Shape};
 use rayon::prelude::*;
 
+/// Evaluate `$body` with `$source` bound to the cache in `$shapes` (`Some`) or to
+/// `&$evaluate` (`None`): the dispatch once per pass, each arm a monomorphised copy. Used
+/// with [`ShapeCache`] / [`Evaluate`] in 1D and with
+/// [`super::TensorShapeCache`] / [`super::EvaluateTensor`] in 2D / 3D.
+macro_rules! with_shape_source {
+    ($shapes:expr, $evaluate:expr, $source:ident => $body:expr) => {
+        match $shapes {
+            Some(cache) => {
+                let $source = cache;
+                $body
+            }
+            None => {
+                let $source = &$evaluate;
+                $body
+            }
+        }
+    };
+}
+pub(crate) use with_shape_source;
+
 /// Particles per rayon task of [`ShapeCache::fill`].
 const PARTICLES_PER_TASK: usize = 4096;
 

@@ -78,11 +78,6 @@ impl<const D: usize> TensorShapeCache<D> {
         self.values.resize(particles * 2 * support * D, 0.0);
     }
 
-    /// The support per axis it was sized for.
-    pub fn support(&self) -> usize {
-        self.support
-    }
-
     /// Disjoint slots for the particle ranges `ranges`, which must be consecutive and
     /// start at 0 (as the tasks of a scatter are).
     pub fn slots(&mut self, ranges: &[Range<usize>]) -> Vec<ShapeSlots<'_, D>> {

@@ -14,6 +14,7 @@
 
 use super::tensor::TensorMapping;
 use super::tensor_scatter::TensorScatter;
+use crate::grid::shape_cache::with_shape_source;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{
     Basis, EvaluateTensor, ShapeSlots, TensorBasis, TensorShape, TensorShapeCache,
@@ -266,26 +267,16 @@ impl<const D: usize> TensorDirectMapping<D> {
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
     ) {
-        match self.shapes.as_ref().filter(|_| self.shapes_current) {
-            Some(cache) => map_momentum_from::<D, B, N, _>(
-                &mut self.momentum,
-                cache,
-                &self.half_length0,
-                basis,
-                particles,
-                cell_start,
-                fields,
-            ),
-            None => map_momentum_from::<D, B, N, _>(
-                &mut self.momentum,
-                &EvaluateTensor,
-                &self.half_length0,
-                basis,
-                particles,
-                cell_start,
-                fields,
-            ),
-        }
+        let shapes = self.shapes.as_ref().filter(|_| self.shapes_current);
+        with_shape_source!(shapes, EvaluateTensor, source => map_momentum_from::<D, B, N, _>(
+            &mut self.momentum,
+            source,
+            &self.half_length0,
+            basis,
+            particles,
+            cell_start,
+            fields,
+        ))
     }
 
     /// MUSL steps 3–4 fused: `v_p += dt sum_I phi_I a_I`, then `p_I = sum_p m_p v_p phi_I`
@@ -316,22 +307,19 @@ impl<const D: usize> TensorDirectMapping<D> {
         dt: f64,
         fields: &mut TensorGridFields<D>,
     ) -> [f64; 4] {
-        let (scatter, half0) = (&mut self.momentum, &self.half_length0);
-        match self.shapes.as_ref().filter(|_| self.shapes_current) {
-            Some(cache) => velocities_and_momentum::<D, B, N, _>(
-                scatter, cache, half0, basis, particles, cell_start, dt, fields,
-            ),
-            None => velocities_and_momentum::<D, B, N, _>(
-                scatter,
-                &EvaluateTensor,
-                half0,
+        let shapes = self.shapes.as_ref().filter(|_| self.shapes_current);
+        with_shape_source!(shapes, EvaluateTensor, source => {
+            velocities_and_momentum::<D, B, N, _>(
+                &mut self.momentum,
+                source,
+                &self.half_length0,
                 basis,
                 particles,
                 cell_start,
                 dt,
                 fields,
-            ),
-        }
+            )
+        })
     }
 }
 

@@ -27,6 +27,7 @@
 
 use crate::config::Scheme;
 use crate::error::{Error, Result};
+use crate::grid::shape_cache::with_shape_source;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, Evaluate, Grid, ParticleQuadrature, Shape, ShapeCache, ShapeSource};
 use crate::linalg::CsrMatrix;
@@ -35,23 +36,6 @@ use crate::numerics::sum::{deterministic_sum, deterministic_sums, sum_block_part
 use crate::particles::{CellBins, Particles};
 use crate::physics::{Body, Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
-
-/// Evaluate `$body` with `$source` bound to the step's [`ShapeCache`] (`Some`) or to
-/// [`Evaluate`] (`None`): the dispatch once per pass, each arm a monomorphised copy.
-macro_rules! with_shape_source {
-    ($shapes:expr, $source:ident => $body:expr) => {
-        match $shapes {
-            Some(cache) => {
-                let $source: &ShapeCache = cache;
-                $body
-            }
-            None => {
-                let $source = &Evaluate;
-                $body
-            }
-        }
-    };
-}
 
 /// Particles per rayon task in particle loops: one block of [`deterministic_sums`], so
 /// the bookkeeping sums folded into these loops (energies, particle momentum) are summed
@@ -461,7 +445,7 @@ fn update_particle_velocities<B: Basis>(
     } = particles;
     // Non-finite solid velocities are reported by `update_particles`.
     let momentum = Some((&mass[..], momentum_of));
-    let (_, sums) = with_shape_source!(shapes, source => with_fixed_support!(basis, N => {
+    let (_, sums) = with_shape_source!(shapes, Evaluate, source => with_fixed_support!(basis, N => {
         update_velocities_n::<B, _, N>(basis, source, x, cell, volume, v, acceleration, dt, momentum)
     }));
     sums
@@ -620,7 +604,7 @@ pub(crate) fn update_particles_with<B: Basis>(
     strain: Option<&[f64]>,
     dt: f64,
 ) -> UpdateOutcome {
-    with_shape_source!(shapes, source => update_particles_from(
+    with_shape_source!(shapes, Evaluate, source => update_particles_from(
         material, basis, source, grid, particles, velocity, strain, dt,
     ))
 }

@@ -24,6 +24,7 @@ use super::timings::{PhaseClock, StepTimings};
 use crate::config::MassKind;
 use crate::config::Scheme;
 use crate::error::{Error, Result};
+use crate::grid::shape_cache::with_shape_source;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, EvaluateTensor, TensorBasis, TensorShape, TensorShapeSource};
 use crate::mapping::tensor::TensorMapping;
@@ -220,10 +221,9 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             dt,
             material: self.material,
         };
-        let outcome = match self.mapping.shapes() {
-            Some(cache) => update.run(cache, particles),
-            None => update.run(&EvaluateTensor, particles),
-        };
+        let outcome = with_shape_source!(self.mapping.shapes(), EvaluateTensor, source => {
+            update.run(source, particles)
+        });
         self.mapping.forget_shapes();
         if let Some((particle, field)) = outcome.failure {
             return Err(match field {
