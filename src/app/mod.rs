@@ -9,6 +9,7 @@ pub mod builtin;
 pub mod memory;
 pub mod overlay;
 pub mod reconstruct;
+pub mod reproduce;
 pub mod run;
 pub mod solver_study;
 pub mod solvers;

@@ -153,6 +153,32 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Re-run the published tables and figures of the sources and write report.md: every
+    /// published number next to ours, with a verdict (matched / better / differs) and its
+    /// reason (docs/reproduce.md).
+    Reproduce {
+        /// Case ids (see --list) or all [default: all].
+        ids: Vec<String>,
+        /// The smallest sizes that still show the published behaviour (about a minute on
+        /// 2 cores; the full run takes about 10).
+        #[arg(long)]
+        quick: bool,
+        /// Output directory: report.md, the plots, runs/, studies/.
+        #[arg(long, default_value = "out/reproduce")]
+        out: PathBuf,
+        /// Worker threads [default: one per core; at most 16 per core].
+        #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
+        threads: Option<usize>,
+        /// Print the case ids with their sources, and run nothing.
+        #[arg(long)]
+        list: bool,
+        /// No progress display and no summary on stdout.
+        #[arg(long)]
+        quiet: bool,
+        /// Replace an existing output directory whole.
+        #[arg(long)]
+        force: bool,
+    },
     /// List the built-in scenarios.
     List,
 }
@@ -405,6 +431,71 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             };
             let path = app::overlay(&options)?;
             println!("wrote {}", path.display());
+            Ok(())
+        }
+        Command::Reproduce {
+            ids,
+            quick,
+            out,
+            threads,
+            list,
+            quiet,
+            force,
+        } => {
+            let cases = app::reproduce::select(&ids)?;
+            if list {
+                for case in &cases {
+                    println!("{:<24} {}", case.id, case.source);
+                }
+                return Ok(());
+            }
+            let options = app::reproduce::ReproduceOptions {
+                ids,
+                quick,
+                out_dir: out.clone(),
+                threads,
+                stop: Some(&interrupt::STOP),
+            };
+            let run_options = RunOptions {
+                out_dir: out,
+                ..RunOptions::default()
+            };
+            let mut progress = Progress::new(quiet);
+            let result = staged_run(&run_options, force, |staged| {
+                let options = app::reproduce::ReproduceOptions {
+                    out_dir: staged.out_dir.clone(),
+                    ..options.clone()
+                };
+                app::reproduce::reproduce(&options, &mut |case, what, step, total| {
+                    progress.update(&format!("{case}: {what}"), step, total)
+                })
+            });
+            progress.finish();
+            let (report, dir) = result?;
+            let counts = report.counts();
+            if !quiet {
+                println!(
+                    "{} cases, {} published numbers compared: {} matched, {} better, {} differs; \
+                     {:.0} s",
+                    report.cases.len(),
+                    counts.compared,
+                    counts.matched,
+                    counts.better,
+                    counts.differs,
+                    report.seconds
+                );
+                println!(
+                    "wrote {}",
+                    dir.join(app::reproduce::report::REPORT).display()
+                );
+            }
+            if counts.failed > 0 {
+                anyhow::bail!(
+                    "{} published numbers could not be computed (a run failed); see {}",
+                    counts.failed,
+                    dir.join(app::reproduce::report::REPORT).display()
+                );
+            }
             Ok(())
         }
         Command::Reconstruct { out } => {

@@ -19,8 +19,9 @@
 use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
-/// Files by which a directory is recognised as an output of `tlsmpm run` / `study`.
-pub const RUN_MARKERS: [&str; 2] = ["summary.json", "study.csv"];
+/// Files by which a directory is recognised as an output of `tlsmpm run` / `study` /
+/// `reproduce`.
+pub const RUN_MARKERS: [&str; 3] = ["summary.json", "study.csv", "report.md"];
 
 /// A staging directory for one run into `target`.
 #[derive(Debug)]
@@ -70,8 +71,8 @@ impl StagedDir {
                 return Err(Error::invalid(
                     "--out",
                     target.display(),
-                    "is a non-empty directory that does not hold a tlsmpm run (no summary.json \
-                     or study.csv); choose another directory",
+                    "is a non-empty directory that does not hold a tlsmpm run (no summary.json, \
+                     study.csv or report.md); choose another directory",
                 ));
             }
             if !replace {
