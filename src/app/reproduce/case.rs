@@ -48,6 +48,8 @@ pub enum RunValue {
     /// (`history.csv`), for tables that report the end of the run.
     FinalMassError,
     FinalMomentumError,
+    /// Particle moves from one cell to another, summed over the run.
+    GridCrossings,
     /// Wall-clock seconds of the time loop.
     WallSeconds,
     /// Settlement of the top particle (largest `x0`): minus its `particles.csv` column `u`.

@@ -24,6 +24,7 @@ mod doc {
     pub const MPM_SMALL_BAR: &str = "docs/mpm.md#small-vibrating-bar";
     pub const SMALL_BAR: &str = "docs/reconstruction.md#small-vibrating-bar";
     pub const LARGE_BAR: &str = "docs/reconstruction.md#large-vibrating-bar";
+    pub const MPM_LARGE_BAR: &str = "docs/mpm.md#large-vibrating-bar";
     pub const CELL_TOTALS: &str = "docs/reconstruction.md#cell-totals";
     pub const MPM_COLUMN: &str = "docs/mpm.md#column-compaction";
     pub const COLUMN: &str = "docs/reconstruction.md#column-compaction";
@@ -388,6 +389,19 @@ fn large_bar() -> Case {
                 ],
                 spline,
             ),
+            {
+                let mut crossings = number(
+                    "MPM grid crossings",
+                    100.0,
+                    Measure::Run(mpm, RunValue::GridCrossings),
+                    Rule::AtLeast(100.0),
+                    Better::Neither,
+                    "",
+                    doc::MPM_LARGE_BAR,
+                );
+                crossings.stated = "> 100";
+                crossings
+            },
             number(
                 "TLS mass error, largest of MPM / DDMPM / BSMPM",
                 2.9e-14,
@@ -524,6 +538,17 @@ fn column_compaction() -> Case {
             doc::COLUMN,
         ));
     }
+    let mut crossings = number(
+        "MPM grid crossings",
+        180.0,
+        Measure::Run(run("column_compaction", &[]), RunValue::GridCrossings),
+        Rule::Relative(0.15),
+        Better::Neither,
+        "",
+        doc::MPM_COLUMN,
+    );
+    crossings.stated = "~180";
+    numbers.push(crossings);
     let runs = |list: &[(&str, &'static [&'static str], f64)], value| -> Vec<_> {
         list.iter()
             .map(|(_, sets, _)| (run("column_compaction", sets), value))

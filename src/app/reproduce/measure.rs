@@ -313,6 +313,7 @@ impl<'a> Lab<'a> {
                 .liquid_max_rel_momentum_error
                 .ok_or_else(|| missing("liquid momentum error")),
             RunValue::WallSeconds => Ok(summary.wall_seconds),
+            RunValue::GridCrossings => Ok(summary.grid_crossings as f64),
             RunValue::FinalMassError | RunValue::FinalMomentumError => {
                 let path = outcome.dir.join("history.csv");
                 let table = Table::read(&path).map_err(|e| e.to_string())?;

@@ -3,7 +3,7 @@
 //! tolerance, the verdict and its reason, the observed orders of the case's studies, and
 //! links to the plots and run directories.
 
-use super::case::{Case, Measure, Plot, Rule, SolverTable, Verdict};
+use super::case::{Case, Measure, Plot, Rule, RunValue, SolverTable, Verdict};
 use super::measure::Lab;
 use super::{Counts, ReproduceReport, Row};
 use crate::app::overlay::{overlay, Axis, OverlayOptions};
@@ -22,9 +22,8 @@ fn show(value: f64, measure: &Measure, rule: Rule) -> String {
         return format!("{value}");
     }
     match (measure, rule) {
-        (Measure::Solver(SolverTable::CgIterations | SolverTable::VCycles, ..), _) => {
-            format!("{value:.0}")
-        }
+        (Measure::Solver(SolverTable::CgIterations | SolverTable::VCycles, ..), _)
+        | (Measure::Run(_, RunValue::GridCrossings), _) => format!("{value:.0}"),
         (Measure::Order(..), _) | (_, Rule::Order(_)) => format!("{value:.2}"),
         _ => significant(value, 4),
     }
