@@ -463,13 +463,14 @@ fn write_vtu_of<const D: usize>(path: &Path, p: &TensorParticles<D>) -> Result<(
         .iter()
         .map(|&(a, b)| p.stress[stress_index(a, b)].as_slice())
         .collect();
+    let density = p.densities();
     // Stress in ParaView's symmetric-tensor order: XX, YY, ZZ, XY, YZ, XZ.
     let arrays = [
         PointArray::new("displacement", vector(&p.u)),
         PointArray::new("velocity", vector(&p.v)),
         PointArray::new("stress", stress),
         PointArray::new("volume", vec![&p.volume]),
-        PointArray::new("density", vec![&p.density]),
+        PointArray::new("density", vec![&density]),
         PointArray::new("mass", vec![&p.mass]),
     ];
     write_vtu(path, &coordinates, &arrays)

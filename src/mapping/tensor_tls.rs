@@ -429,10 +429,10 @@ impl<const D: usize> TensorTlsMapping<D> {
                     for (rhs, &(a, c)) in stress_rhs.iter_mut().zip(&components) {
                         add_rhs::<D>(rhs, &t, particles.stress[stress_index(a, c)][p]);
                     }
-                    add_rhs::<D>(&mut density_rhs, &t, particles.density[p]);
+                    add_rhs::<D>(&mut density_rhs, &t, particles.density(p));
                     if let Some(b) = body {
                         for a in 0..D {
-                            add_rhs::<D>(&mut body_rhs[a], &t, particles.density[p] * b[a][p]);
+                            add_rhs::<D>(&mut body_rhs[a], &t, particles.density(p) * b[a][p]);
                         }
                     }
                 }
@@ -499,7 +499,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                     let t = taylor.terms(particles.position(p));
                     normal.add(&t);
                     for a in 0..D {
-                        add_rhs::<D>(&mut rhs[a], &t, particles.density[p] * values[a][p]);
+                        add_rhs::<D>(&mut rhs[a], &t, particles.density(p) * values[a][p]);
                     }
                 }
                 let (conservative, q) = fit_degree(&normal, true, MAX_DEGREE);
@@ -991,7 +991,6 @@ mod tests {
             p.stress[0][k] = 3.0 * s;
             p.stress[3][k] = s - 0.5;
             p.mass[k] *= 1.0 + s.abs();
-            p.density[k] = p.mass[k] / p.volume[k];
         }
         p
     }
@@ -1120,7 +1119,7 @@ mod consistent_tests {
         let mut p =
             TensorParticles::<2>::at_rest(x, vec![0.011; n], 2.0, |x| grid.cell_of(x).unwrap_or(0));
         for k in 0..n {
-            p.density[k] *= 1.0 + 0.3 * (k as f64).sin();
+            p.mass[k] *= 1.0 + 0.3 * (k as f64).sin();
         }
         let (mut start, mut order) = (Vec::new(), Vec::new());
         p.sort_by_cell(grid.num_cells(), &mut start, &mut order);

@@ -84,7 +84,7 @@ pub fn write_tensor_particles<const D: usize>(
                 put(out, p.stress[c][k]);
             }
             put(out, p.volume[k]);
-            put(out, p.density[k]);
+            put(out, p.density(k));
             put(out, p.mass[k]);
             for column in exact {
                 match column.field {

@@ -52,8 +52,6 @@ pub struct TensorParticles<const D: usize> {
     pub volume: Vec<f64>,
     /// Initial volume `V_p^0`.
     pub volume0: Vec<f64>,
-    /// Density `rho_p = m_p / V_p`.
-    pub density: Vec<f64>,
     /// Constant mass `m_p`.
     pub mass: Vec<f64>,
     /// Lexicographic cell of each particle.
@@ -72,7 +70,6 @@ impl<const D: usize> Default for TensorParticles<D> {
             deformation_gradient: std::array::from_fn(|_| std::array::from_fn(|_| Vec::new())),
             volume: Vec::new(),
             volume0: Vec::new(),
-            density: Vec::new(),
             mass: Vec::new(),
             cell: Vec::new(),
         }
@@ -100,6 +97,18 @@ impl<const D: usize> TensorParticles<D> {
     #[inline(always)]
     pub fn velocity(&self, p: usize) -> [f64; D] {
         std::array::from_fn(|a| self.v[a][p])
+    }
+
+    /// Density `rho_p = m_p / V_p` of particle `p` (derived, not stored: the particle
+    /// update does not write it).
+    #[inline(always)]
+    pub fn density(&self, p: usize) -> f64 {
+        self.mass[p] / self.volume[p]
+    }
+
+    /// Every particle's density [`Self::density`], for output.
+    pub fn densities(&self) -> Vec<f64> {
+        (0..self.len()).map(|p| self.density(p)).collect()
     }
 
     /// Initial position of particle `p`.
@@ -130,7 +139,6 @@ impl<const D: usize> TensorParticles<D> {
                 std::array::from_fn(|b| vec![if a == b { 1.0 } else { 0.0 }; n])
             }),
             mass: volume.iter().map(|v| density * v).collect(),
-            density: vec![density; n],
             volume0: volume.clone(),
             volume,
             cell: cells,
@@ -149,12 +157,7 @@ impl<const D: usize> TensorParticles<D> {
         for row in self.deformation_gradient.iter_mut() {
             fields.extend(row.iter_mut());
         }
-        fields.extend([
-            &mut self.volume,
-            &mut self.volume0,
-            &mut self.density,
-            &mut self.mass,
-        ]);
+        fields.extend([&mut self.volume, &mut self.volume0, &mut self.mass]);
         fields
     }
 

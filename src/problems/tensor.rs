@@ -203,7 +203,6 @@ impl<const D: usize> TensorProblem<D> {
                         p.stress[c][k] = *s;
                     }
                     p.volume[k] = j * p.volume0[k];
-                    p.density[k] = p.mass[k] / p.volume[k];
                     p.cell[k] = grid.cell_of(p.position(k)).unwrap_or(0);
                 }
             }

@@ -193,7 +193,7 @@ impl<const D: usize> TensorSimulation<D> {
             .with_min_len(4096)
             .map(|k| {
                 let speed2: f64 = (0..D).map(|a| p.v[a][k] * p.v[a][k]).sum();
-                (modulus / p.density[k]).sqrt() + speed2.sqrt()
+                (modulus / p.density(k)).sqrt() + speed2.sqrt()
             })
             .reduce(|| 0.0, f64::max);
         let dt = cfl * initial_limit * initial_speed / fastest.max(initial_speed * 1e-12);

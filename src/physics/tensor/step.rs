@@ -399,7 +399,6 @@ struct ChunkMut<'a, const D: usize> {
     stress: [&'a mut [f64]; 6],
     f: [[&'a mut [f64]; D]; D],
     volume: &'a mut [f64],
-    density: &'a mut [f64],
     cell: &'a mut [usize],
 }
 
@@ -443,7 +442,6 @@ fn chunks_of<'a, const D: usize>(
         .map(|row| split_array(row, ranges).into_iter())
         .collect();
     let mut volume = split(&mut p.volume, ranges).into_iter();
-    let mut density = split(&mut p.density, ranges).into_iter();
     let mut cell = split(&mut p.cell, ranges).into_iter();
     ranges
         .iter()
@@ -464,7 +462,6 @@ fn chunks_of<'a, const D: usize>(
                     .unwrap_or_else(|| std::array::from_fn(|_| Default::default()))
             }),
             volume: volume.next().unwrap_or_default(),
-            density: density.next().unwrap_or_default(),
             cell: cell.next().unwrap_or_default(),
         })
         .collect()
@@ -581,7 +578,6 @@ where
                 let j = determinant(&f);
                 let volume = j * volume0[k];
                 c.volume[i] = volume;
-                c.density[i] = mass[k] / volume;
                 let mut stress: [f64; 6] =
                     std::array::from_fn(|s| if s < live { c.stress[s][i] } else { 0.0 });
                 stored += law.update_with_energy(&mut stress, &dl, &f, j, volume0[k]);
