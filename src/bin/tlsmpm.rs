@@ -159,8 +159,8 @@ enum Command {
     Reproduce {
         /// Case ids (see --list) or all [default: all].
         ids: Vec<String>,
-        /// The smallest sizes that still show the published behaviour (about a minute on
-        /// 2 cores; the full run takes about 10).
+        /// The smallest sizes that still show the published behaviour (about 50 s on 2
+        /// cores; the full run about 95 s).
         #[arg(long)]
         quick: bool,
         /// Output directory: report.md, the plots, runs/, studies/.
