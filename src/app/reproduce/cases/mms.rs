@@ -1,0 +1,188 @@
+//! The manufactured solutions: the neo-Hookean bar of Tran et al. 2019 (IMLS MPM, with the
+//! further methods of the comparison) and the axis-aligned solution of Wallstedt & Guilkey
+//! 2008 in 2D.
+
+use super::{doc, number};
+use crate::app::reproduce::case::{Better, Case, Measure, Pair, Plot, Rule, StudySpec};
+use crate::problems::Field;
+
+/// The MMS-bar methods of the comparison (label, overrides); the first three are the
+/// published ones.
+const MMS_METHODS: [(&str, &[&str]); 13] = [
+    ("MPM", &["method.reconstruction=none"]),
+    ("CPDI", &["method.basis=cpdi", "method.reconstruction=none"]),
+    ("IMLS", &["method.reconstruction=imls"]),
+    ("MLS", &["method.reconstruction=mls"]),
+    (
+        "IMLS-CONSISTENT",
+        &["method.reconstruction=imls", "method.mass=consistent"],
+    ),
+    (
+        "IMLS-GRADIENT",
+        &["method.reconstruction=imls", "method.strain=gradient"],
+    ),
+    (
+        "IMLS-GRADIENT-USL",
+        &[
+            "method.reconstruction=imls",
+            "method.strain=gradient",
+            "method.scheme=usl",
+        ],
+    ),
+    (
+        "IMLS-CPDI",
+        &["method.reconstruction=imls", "method.basis=cpdi"],
+    ),
+    (
+        "IMLS-BSPLINE",
+        &[
+            "method.reconstruction=imls",
+            "method.basis=bspline",
+            "method.order=2",
+        ],
+    ),
+    ("MPM-TLS", &["method.reconstruction=tls"]),
+    (
+        "MPM-TLS-USL",
+        &["method.reconstruction=tls", "method.scheme=usl"],
+    ),
+    (
+        "BSMPM-TLS",
+        &[
+            "method.basis=bspline",
+            "method.order=2",
+            "method.reconstruction=tls",
+        ],
+    ),
+    (
+        "BSMPM-TLS-USL",
+        &[
+            "method.basis=bspline",
+            "method.order=2",
+            "method.reconstruction=tls",
+            "method.scheme=usl",
+        ],
+    ),
+];
+
+fn mms_study(k: usize) -> StudySpec {
+    let (label, sets) = MMS_METHODS[k];
+    StudySpec {
+        label,
+        scenario: "mms_bar",
+        sets,
+        cells: &[8, 16, 32, 64, 128],
+        quick_cells: &[8, 16, 32],
+    }
+}
+
+pub(super) fn mms_bar() -> Case {
+    let (mpm, cpdi, imls) = (mms_study(0), mms_study(1), mms_study(2));
+    let mut numbers = Vec::new();
+    for field in [Field::Displacement, Field::Stress] {
+        let mut n = number(
+            format!("MPM {} order, coarsest to finest", field.name()),
+            0.0,
+            Measure::Order(mpm, field, Pair::Overall),
+            Rule::AtMost(0.5),
+            Better::Neither,
+            "",
+            doc::MMS_BAR,
+        );
+        n.stated = "does not converge";
+        numbers.push(n);
+    }
+    for field in [Field::Displacement, Field::Velocity, Field::Stress] {
+        let mut n = number(
+            format!("CPDI {} order, two coarsest grids", field.name()),
+            2.0,
+            Measure::Order(cpdi, field, Pair::Coarsest),
+            Rule::AtLeast(1.7),
+            Better::Neither,
+            "",
+            doc::MMS_BAR,
+        );
+        n.stated = "2 on coarse grids";
+        numbers.push(n);
+    }
+    for field in [Field::Displacement, Field::Velocity, Field::Stress] {
+        let mut n = number(
+            format!("MPM-IMLS {} order, coarsest to finest", field.name()),
+            2.0,
+            Measure::Order(imls, field, Pair::Overall),
+            Rule::AtLeast(1.7),
+            Better::Neither,
+            "",
+            doc::MMS_BAR,
+        );
+        n.stated = "2";
+        numbers.push(n);
+    }
+    Case {
+        id: "mms_bar",
+        source: "Tran et al. 2019 (IMLS MPM), Figs. 4-6",
+        title: "Manufactured-solution bar, neo-Hookean, A = 0.1 m, 3 PPC, 8 to 128 cells: RMS orders (and 10 further methods for comparison)",
+        numbers,
+        context: (3..MMS_METHODS.len()).map(mms_study).collect(),
+        plots: ["displacement", "velocity", "stress"]
+            .into_iter()
+            .map(|field| Plot::Studies {
+                file: match field {
+                    "displacement" => "mms_bar_rms_displacement.svg",
+                    "velocity" => "mms_bar_rms_velocity.svg",
+                    _ => "mms_bar_rms_stress.svg",
+                },
+                field,
+            })
+            .collect(),
+    }
+}
+
+pub(super) fn axis_aligned_mms() -> Case {
+    let study = |label, sets| StudySpec {
+        label,
+        scenario: "axis_aligned_mms",
+        sets,
+        cells: &[8, 16, 32, 64],
+        quick_cells: &[8, 16, 32],
+    };
+    let linear = study("MPM (linear)", &["method.basis=linear"]);
+    let gimp = study("GIMP", &["method.basis=gimp"]);
+    let bspline = study("BSMPM p = 2", &[]);
+    let mut stall = number(
+        "MPM (linear) displacement order, two finest grids",
+        0.0,
+        Measure::Order(linear, Field::Displacement, Pair::Finest),
+        Rule::AtMost(1.0),
+        Better::Neither,
+        "",
+        doc::DIMENSIONS,
+    );
+    stall.stated = "stalls or diverges";
+    let mut numbers = vec![stall];
+    for (name, spec) in [("GIMP", gimp), ("BSMPM p = 2", bspline)] {
+        let mut n = number(
+            format!("{name} displacement order, coarsest to finest"),
+            2.0,
+            Measure::Order(spec, Field::Displacement, Pair::Overall),
+            Rule::AtLeast(1.7),
+            Better::Neither,
+            "",
+            doc::DIMENSIONS,
+        );
+        n.stated = "about 2";
+        numbers.push(n);
+    }
+    Case {
+        id: "axis_aligned_mms",
+        source:
+            "Wallstedt & Guilkey 2008 (J. Comput. Phys. 227), axis-aligned manufactured solution",
+        title: "Axis-aligned manufactured solution, 2D plane strain, 4 PPC, 8 to 64 cells",
+        numbers,
+        context: vec![],
+        plots: vec![Plot::Studies {
+            file: "axis_aligned_mms_rms_displacement.svg",
+            field: "displacement",
+        }],
+    }
+}
