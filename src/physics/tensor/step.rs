@@ -8,7 +8,8 @@
 //!    USL:  v_I = p_I(v_p^old) / m_I + dt a_I;  v_p += dt phi^T a (in the last pass)
 //!    held components of v_I = 0
 //! 4. x_p += dt phi^T v, u_p += dt phi^T v, L_p = sum_I v_I (x) grad phi_I
-//! 5. F_p <- (I + dt L_p) F_p, V_p = det F_p V_p^0, rho_p = m_p / V_p, sigma_p = law(...)
+//! 5. F_p <- (I + dt L_p) F_p, V_p = det F_p V_p^0, sigma_p = law(...) (the density
+//!    rho_p = m_p / V_p is derived where it is needed, not stored)
 //! ```
 //! then the new cells, the counting sort when the mapping's bins went stale (a particle
 //! changed cell for per-cell fits; strayed more than `TensorMapping::bin_slack` layers of
