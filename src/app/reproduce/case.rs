@@ -219,6 +219,18 @@ impl Verdict {
 }
 
 impl Published {
+    /// The same number with the paper's wording of it (see [`Published::stated`]).
+    pub fn stated(mut self, text: &'static str) -> Self {
+        self.stated = text;
+        self
+    }
+
+    /// The same number, part of `--quick` or not.
+    pub fn quick(mut self, quick: bool) -> Self {
+        self.quick = quick;
+        self
+    }
+
     /// The verdict for our value `ours`: `matched` under the rule, else `better` when ours
     /// lies on the better side and a reason is known, else `differs`.
     pub fn verdict(&self, ours: f64) -> Verdict {

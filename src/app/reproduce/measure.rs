@@ -22,8 +22,8 @@ use std::sync::atomic::AtomicBool;
 const SOLVER_CELLS: [usize; 4] = [8, 16, 32, 64];
 const CG_CELLS: [usize; 4] = [16, 32, 64, 128];
 /// `--quick`: the two coarsest of each.
-const QUICK_SOLVER_CELLS: [usize; 2] = [8, 16];
-const QUICK_CG_CELLS: [usize; 2] = [16, 32];
+pub(crate) const QUICK_SOLVER_CELLS: [usize; 2] = [8, 16];
+pub(crate) const QUICK_CG_CELLS: [usize; 2] = [16, 32];
 /// Orders of the solver tables.
 const SOLVER_ORDERS: [usize; 5] = [1, 2, 3, 4, 5];
 

@@ -276,8 +276,7 @@ pub(super) fn large_bar() -> Case {
                 ],
                 spline,
             ),
-            {
-                let mut crossings = number(
+            number(
                     "MPM grid crossings",
                     100.0,
                     Measure::Run(mpm, RunValue::GridCrossings),
@@ -285,10 +284,8 @@ pub(super) fn large_bar() -> Case {
                     Better::Neither,
                     "",
                     doc::MPM_LARGE_BAR,
-                );
-                crossings.stated = "> 100";
-                crossings
-            },
+                )
+                .stated("> 100"),
             number(
                 "TLS mass error, largest of MPM / DDMPM / BSMPM",
                 2.9e-14,

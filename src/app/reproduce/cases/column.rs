@@ -108,7 +108,7 @@ pub(super) fn column_compaction() -> Case {
             doc::COLUMN,
         ));
     }
-    let mut crossings = number(
+    let crossings = number(
         "MPM grid crossings",
         180.0,
         Measure::Run(run("column_compaction", &[]), RunValue::GridCrossings),
@@ -116,8 +116,8 @@ pub(super) fn column_compaction() -> Case {
         Better::Neither,
         "",
         doc::MPM_COLUMN,
-    );
-    crossings.stated = "~180";
+    )
+    .stated("~180");
     numbers.push(crossings);
     let runs = |list: &[(&str, &'static [&'static str], f64)], value| -> Vec<_> {
         list.iter()
@@ -232,34 +232,37 @@ pub(super) fn column_subpoints() -> Case {
     for (n, sets, error, time) in TABLE {
         let spec = run("column_compaction", sets);
         // --quick stops at 32 sub-points (64 and 128 take 20 s of the 30).
-        let first = numbers.len();
-        numbers.push(number(
-            format!("{n} sub-points: stress rel. L2"),
-            error,
-            Measure::Run(spec, RunValue::RelL2(Field::Stress)),
-            Rule::Relative(0.25),
-            Better::Lower,
-            "sub-points spread evenly over each particle's domain; the paper does not give \
+        let quick = n <= 32;
+        numbers.push(
+            number(
+                format!("{n} sub-points: stress rel. L2"),
+                error,
+                Measure::Run(spec, RunValue::RelL2(Field::Stress)),
+                Rule::Relative(0.25),
+                Better::Lower,
+                "sub-points spread evenly over each particle's domain; the paper does not give \
              its placement",
-            doc::SUBPOINTS,
-        ));
-        numbers.push(number(
-            format!("{n} sub-points: time / DDMPM-TLS time"),
-            time,
-            Measure::Ratio(
-                (spec, RunValue::WallSeconds),
-                (ddmpm_tls, RunValue::WallSeconds),
-            ),
-            Rule::Factor(2.0),
-            Better::Lower,
-            "our TLS mapping is relatively cheaper than the paper's (batched per-cell fits), \
+                doc::SUBPOINTS,
+            )
+            .quick(quick),
+        );
+        numbers.push(
+            number(
+                format!("{n} sub-points: time / DDMPM-TLS time"),
+                time,
+                Measure::Ratio(
+                    (spec, RunValue::WallSeconds),
+                    (ddmpm_tls, RunValue::WallSeconds),
+                ),
+                Rule::Factor(2.0),
+                Better::Lower,
+                "our TLS mapping is relatively cheaper than the paper's (batched per-cell fits), \
              so every sub-point count costs more than DDMPM-TLS here (wall times vary by \
              machine and load)",
-            doc::SUBPOINTS,
-        ));
-        for number in &mut numbers[first..] {
-            number.quick = n <= 32;
-        }
+                doc::SUBPOINTS,
+            )
+            .quick(quick),
+        );
     }
     Case {
         id: "column_subpoints",

@@ -84,7 +84,7 @@ pub(super) fn consolidation() -> Case {
         "consolidation",
         &["method.reconstruction=cubic_spline", "grid.cells=40"],
     );
-    let mut tls_conservation = number(
+    let tls_conservation = number(
         "BSMPM-TLS, 40 cells: largest mass / momentum error of both phases",
         1e-13,
         Measure::MaxOf(vec![
@@ -97,9 +97,9 @@ pub(super) fn consolidation() -> Case {
         Better::Lower,
         "",
         doc::CONSOLIDATION,
-    );
-    tls_conservation.stated = "round-off";
-    let mut spline_conservation = number(
+    )
+    .stated("round-off");
+    let spline_conservation = number(
         "MPM-spline, 40 cells: largest momentum error of both phases",
         2e-6,
         Measure::MaxOf(vec![
@@ -110,8 +110,8 @@ pub(super) fn consolidation() -> Case {
         Better::Lower,
         "",
         doc::CONSOLIDATION,
-    );
-    spline_conservation.stated = "1e-9 .. 2e-6";
+    )
+    .stated("1e-9 .. 2e-6");
     numbers.push(tls_conservation);
     numbers.push(spline_conservation);
     Case {

@@ -77,46 +77,66 @@ fn mms_study(k: usize) -> StudySpec {
 }
 
 pub(super) fn mms_bar() -> Case {
-    let (mpm, cpdi, imls) = (mms_study(0), mms_study(1), mms_study(2));
-    let mut numbers = Vec::new();
-    for field in [Field::Displacement, Field::Stress] {
-        let mut n = number(
-            format!("MPM {} order, coarsest to finest", field.name()),
+    use Field::{Displacement, Stress, Velocity};
+    // (study, label, fields, grid pair, published value, as stated, rule)
+    type Claim = (
+        StudySpec,
+        &'static str,
+        &'static [Field],
+        Pair,
+        f64,
+        &'static str,
+        Rule,
+    );
+    let claims: [Claim; 3] = [
+        (
+            mms_study(0),
+            "MPM",
+            &[Displacement, Stress],
+            Pair::Overall,
             0.0,
-            Measure::Order(mpm, field, Pair::Overall),
+            "does not converge",
             Rule::AtMost(0.5),
-            Better::Neither,
-            "",
-            doc::MMS_BAR,
-        );
-        n.stated = "does not converge";
-        numbers.push(n);
-    }
-    for field in [Field::Displacement, Field::Velocity, Field::Stress] {
-        let mut n = number(
-            format!("CPDI {} order, two coarsest grids", field.name()),
+        ),
+        (
+            mms_study(1),
+            "CPDI",
+            &[Displacement, Velocity, Stress],
+            Pair::Coarsest,
             2.0,
-            Measure::Order(cpdi, field, Pair::Coarsest),
+            "2 on coarse grids",
             Rule::AtLeast(1.7),
-            Better::Neither,
-            "",
-            doc::MMS_BAR,
-        );
-        n.stated = "2 on coarse grids";
-        numbers.push(n);
-    }
-    for field in [Field::Displacement, Field::Velocity, Field::Stress] {
-        let mut n = number(
-            format!("MPM-IMLS {} order, coarsest to finest", field.name()),
+        ),
+        (
+            mms_study(2),
+            "MPM-IMLS",
+            &[Displacement, Velocity, Stress],
+            Pair::Overall,
             2.0,
-            Measure::Order(imls, field, Pair::Overall),
+            "2",
             Rule::AtLeast(1.7),
-            Better::Neither,
-            "",
-            doc::MMS_BAR,
-        );
-        n.stated = "2";
-        numbers.push(n);
+        ),
+    ];
+    let mut numbers = Vec::new();
+    for (study, label, fields, pair, value, stated, rule) in claims {
+        let grids = match pair {
+            Pair::Coarsest => "two coarsest grids",
+            _ => "coarsest to finest",
+        };
+        for &field in fields {
+            numbers.push(
+                number(
+                    format!("{label} {} order, {grids}", field.name()),
+                    value,
+                    Measure::Order(study, field, pair),
+                    rule,
+                    Better::Neither,
+                    "",
+                    doc::MMS_BAR,
+                )
+                .stated(stated),
+            );
+        }
     }
     Case {
         id: "mms_bar",
@@ -149,7 +169,7 @@ pub(super) fn axis_aligned_mms() -> Case {
     let linear = study("MPM (linear)", &["method.basis=linear"]);
     let gimp = study("GIMP", &["method.basis=gimp"]);
     let bspline = study("BSMPM p = 2", &[]);
-    let mut stall = number(
+    let stall = number(
         "MPM (linear) displacement order, two finest grids",
         0.0,
         Measure::Order(linear, Field::Displacement, Pair::Finest),
@@ -157,11 +177,11 @@ pub(super) fn axis_aligned_mms() -> Case {
         Better::Neither,
         "",
         doc::DIMENSIONS,
-    );
-    stall.stated = "stalls or diverges";
+    )
+    .stated("stalls or diverges");
     let mut numbers = vec![stall];
     for (name, spec) in [("GIMP", gimp), ("BSMPM p = 2", bspline)] {
-        let mut n = number(
+        let n = number(
             format!("{name} displacement order, coarsest to finest"),
             2.0,
             Measure::Order(spec, Field::Displacement, Pair::Overall),
@@ -169,8 +189,8 @@ pub(super) fn axis_aligned_mms() -> Case {
             Better::Neither,
             "",
             doc::DIMENSIONS,
-        );
-        n.stated = "about 2";
+        )
+        .stated("about 2");
         numbers.push(n);
     }
     Case {
