@@ -1,9 +1,9 @@
 //! Profile the consistent-mass solve with pprof and write a flamegraph.
 //!
 //! ```text
-//! cargo run --release --example profile_mass_solve
-//! cargo run --release --example profile_mass_solve -- --solver kron --solves 200
-//! cargo run --release --example profile_mass_solve -- --dim 1 --cells 1e6 --solver banded
+//! cargo run --profile profiling --example profile_mass_solve
+//! cargo run --profile profiling --example profile_mass_solve -- --solver kron --solves 200
+//! cargo run --profile profiling --example profile_mass_solve -- --dim 1 --cells 1e6 --solver banded
 //! ```
 //!
 //! Assembles the `tlsmpm solver-study` problem (B-splines of order `--order` on `--cells`

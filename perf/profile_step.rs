@@ -1,10 +1,10 @@
 //! Profile the MPM step with pprof and write a flamegraph.
 //!
 //! ```text
-//! cargo run --release --example profile_step -- --particles 1000000 --steps 200
-//! cargo run --release --example profile_step -- --particles 120000 --steps 2000 --out /tmp/fg.svg
-//! cargo run --release --example profile_step -- --basis bspline --order 2 --out /tmp/fg_p2.svg
-//! cargo run --release --example profile_step -- --dim 2 --cells 128 --solver kron --steps 50
+//! cargo run --profile profiling --example profile_step -- --particles 1000000 --steps 200
+//! cargo run --profile profiling --example profile_step -- --particles 120000 --steps 2000 --out /tmp/fg.svg
+//! cargo run --profile profiling --example profile_step -- --basis bspline --order 2 --out /tmp/fg_p2.svg
+//! cargo run --profile profiling --example profile_step -- --dim 2 --cells 128 --solver kron --steps 50
 //! ```
 //!
 //! `--dim 1` (default): `--steps` steps of the vibrating bar
