@@ -507,6 +507,10 @@ fn bad_two_phase_input_names_the_key() {
             "problem.reference=ulfem",
             &["`problem.reference`", "exact"][..],
         ),
+        (
+            "method.strain=adjoint",
+            &["`method.strain`", "two-phase", "gradient"][..],
+        ),
     ] {
         expect_input_error(CONSOLIDATION, &[TINY, set], &[], needles);
     }

@@ -93,7 +93,8 @@ pub fn build_simulation(
                 TlsMapping::new(grid, points, method.degenerate_cells, method.cell_totals)
                     .ok_or_else(|| {
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
-                    })?;
+                    })?
+                    .with_adjoint(method.strain(parts.two_phase.is_some()) == StrainKind::Adjoint);
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

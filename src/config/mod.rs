@@ -122,7 +122,7 @@ end = 1.9e-6
     }
 
     #[test]
-    fn the_adjoint_strain_needs_mls_or_imls_and_one_phase() {
+    fn the_adjoint_strain_needs_a_reconstruction_and_one_phase() {
         let with = |sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
             from_str(BAR, "bar", &sets).and_then(|s| s.validate().map(|()| s))
@@ -139,9 +139,17 @@ end = 1.9e-6
             with(&[]).unwrap().method.strain(false),
             StrainKind::Gradient
         );
+        // TLS: gradient by default (the published method), adjoint on request.
+        let tls = with(&["method.reconstruction=tls"]).unwrap();
+        assert_eq!(tls.method.strain(false), StrainKind::Gradient);
+        let tls = with(&["method.reconstruction=tls", "method.strain=adjoint"]).unwrap();
+        assert_eq!(tls.method.strain(false), StrainKind::Adjoint);
         for sets in [
             &["method.strain=adjoint"][..],
-            &["method.strain=adjoint", "method.reconstruction=tls"],
+            &[
+                "method.strain=adjoint",
+                "method.reconstruction=cubic_spline",
+            ],
             &["method.strain=sideways"],
         ] {
             let err = with(sets).unwrap_err();

@@ -459,7 +459,8 @@ pub struct MethodConfig {
     /// [`MethodConfig::node_integrals`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node_integrals: Option<NodeIntegrals>,
-    /// The particle strain increments of MLS / IMLS. Default: see [`MethodConfig::strain`].
+    /// The particle strain increments (and, with TLS, accelerations) of a reconstruction.
+    /// Default: see [`MethodConfig::strain`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strain: Option<StrainKind>,
 }
@@ -487,9 +488,11 @@ pub enum StrainKind {
     /// The basis gradient at the particle, `deps_p = dt sum_i dphi_i(x_p) v_i` (standard
     /// MPM; the IMLS paper's eq. 37).
     Gradient,
-    /// MLS / IMLS only: the strain work-conjugate to the internal force of the fitted
-    /// stress, the fit-weighted mean of the Gauss-point velocity gradients (see
-    /// `mapping::mls::adjoint`). Neutrally stable where `gradient` has a growing mode.
+    /// TLS, MLS and IMLS (one-phase, 1D): the strain work-conjugate to the internal force
+    /// of the fitted stress, the fit-weighted mean of the Gauss-point velocity gradients
+    /// (see `mapping::mls::adjoint`, `mapping::tls::adjoint`); with TLS also the particle
+    /// acceleration adjoint to the momentum fit. Neutrally stable where `gradient` has a
+    /// growing mode.
     Adjoint,
 }
 

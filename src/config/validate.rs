@@ -166,9 +166,11 @@ impl Scenario {
                 Some("the two-phase step supports method.strain = \"gradient\" only")
             } else if !matches!(
                 self.method.reconstruction,
-                ReconstructionKind::Mls | ReconstructionKind::Imls
+                ReconstructionKind::Tls | ReconstructionKind::Mls | ReconstructionKind::Imls
             ) {
-                Some("the adjoint strain needs method.reconstruction = \"mls\" or \"imls\"")
+                Some(
+                    "the adjoint strain needs method.reconstruction = \"tls\", \"mls\" or \"imls\"",
+                )
             } else {
                 None
             };

@@ -173,6 +173,22 @@ pub trait Mapping: Send {
         false
     }
 
+    /// Particle accelerations `a_p` from the grid accelerations `acceleration`, for a
+    /// mapping whose particle velocity update is the transpose of its own momentum map,
+    /// `a_p = (1/m_p) d/dv_p sum_i a_i p_i(v)` (the adjoint TLS, `method.strain =
+    /// "adjoint"`). Called after [`Mapping::map_momentum`] at the same positions. Returns
+    /// `false`, leaving `out` alone, when `a_p = sum_i phi_i(x_p) a_i` is to be used (the
+    /// default).
+    fn particle_accelerations<B: Basis>(
+        &mut self,
+        _basis: &B,
+        _particles: &Particles,
+        _acceleration: &[f64],
+        _out: &mut Vec<f64>,
+    ) -> bool {
+        false
+    }
+
     /// Remedies applied since the mapping was created (none for direct quadrature).
     fn remedies(&self) -> RemedyCounts {
         RemedyCounts::default()

@@ -81,6 +81,9 @@ pub struct Stepper<B: Basis, M: Mapping> {
     /// Particle strain increments of a mapping that defines its own
     /// ([`Mapping::strain_increments`]).
     strain: Vec<f64>,
+    /// Particle accelerations of a mapping that defines its own
+    /// ([`Mapping::particle_accelerations`]).
+    particle_acceleration: Vec<f64>,
     /// The basis at the particles, evaluated once per step for the passes that need it
     /// (bases with [`Basis::reuse_shapes`]).
     shapes: Option<ShapeCache>,
@@ -126,6 +129,7 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             body_view: Particles::default(),
             body_fields: None,
             strain: Vec::new(),
+            particle_acceleration: Vec::new(),
             shapes: basis.reuse_shapes().then(ShapeCache::default),
             basis,
         }
@@ -225,10 +229,12 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         let momentum_error = match self.scheme {
             Scheme::Musl => {
                 let sums = update_particle_velocities(
+                    &mut self.mapping,
                     &self.basis,
                     shapes,
                     particles,
                     &fields.acceleration,
+                    &mut self.particle_acceleration,
                     dt,
                     MomentumOf::Updated,
                 );
@@ -252,10 +258,12 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
                     .velocities(fields, dt)
                     .map_err(|e| at_step(e, step, time))?;
                 let sums = update_particle_velocities(
+                    &mut self.mapping,
                     &self.basis,
                     shapes,
                     particles,
                     &fields.acceleration,
+                    &mut self.particle_acceleration,
                     dt,
                     MomentumOf::Previous,
                 );
@@ -423,18 +431,31 @@ enum MomentumOf {
     Previous,
 }
 
-/// Step 3: `v_p += dt phi^T(x_p) a` for the solid velocities `particles.v`, returning
-/// `[sum_p m_p v_p, sum_p m_p |v_p|]` of the velocities `momentum_of` names (the
-/// conservation check of the mapping, folded into this pass; bitwise a separate
-/// [`deterministic_sums`]).
-fn update_particle_velocities<B: Basis>(
+/// Step 3: `v_p += dt phi^T(x_p) a` for the solid velocities `particles.v` (or `dt a_p`
+/// with the mapping's own particle accelerations, [`Mapping::particle_accelerations`],
+/// computed into `particle_acceleration`), returning `[sum_p m_p v_p, sum_p m_p |v_p|]` of
+/// the velocities `momentum_of` names (the conservation check of the mapping, folded into
+/// this pass; bitwise a separate [`deterministic_sums`]).
+#[allow(clippy::too_many_arguments)]
+fn update_particle_velocities<B: Basis, M: Mapping>(
+    mapping: &mut M,
     basis: &B,
     shapes: Option<&ShapeCache>,
     particles: &mut Particles,
     acceleration: &[f64],
+    particle_acceleration: &mut Vec<f64>,
     dt: f64,
     momentum_of: MomentumOf,
 ) -> [f64; 2] {
+    if mapping.particle_accelerations(basis, particles, acceleration, particle_acceleration) {
+        return add_particle_accelerations(
+            &mut particles.v,
+            &particles.mass,
+            particle_acceleration,
+            dt,
+            momentum_of,
+        );
+    }
     let Particles {
         x,
         cell,
@@ -449,6 +470,38 @@ fn update_particle_velocities<B: Basis>(
         update_velocities_n::<B, _, N>(basis, source, x, cell, volume, v, acceleration, dt, momentum)
     }));
     sums
+}
+
+/// `v_p += dt a_p` with per-particle accelerations, returning the momentum sums of
+/// [`update_velocities_n`] (same blocks, same order).
+fn add_particle_accelerations(
+    velocity: &mut [f64],
+    mass: &[f64],
+    acceleration: &[f64],
+    dt: f64,
+    momentum_of: MomentumOf,
+) -> [f64; 2] {
+    let blocks: Vec<[f64; 2]> = velocity
+        .par_chunks_mut(PARTICLES_PER_TASK)
+        .enumerate()
+        .map(|(chunk, v)| {
+            let start = chunk * PARTICLES_PER_TASK;
+            let mut sums = [0.0; 2];
+            for (k, v) in v.iter_mut().enumerate() {
+                let p = start + k;
+                let previous = *v;
+                *v += dt * acceleration[p];
+                let counted = match momentum_of {
+                    MomentumOf::Updated => *v,
+                    MomentumOf::Previous => previous,
+                };
+                sums[0] += mass[p] * counted;
+                sums[1] += mass[p] * counted.abs();
+            }
+            sums
+        })
+        .collect();
+    sum_block_partials(&blocks)
 }
 
 /// `velocity_p += dt phi^T(x_p) a` for particles at `x` in `cell` with volumes `volume`

@@ -113,16 +113,11 @@ impl FitContext<'_> {
         };
         let mut normal = self.sums[cell].normal;
         if self.remedy == DegenerateRemedy::VirtualPoints {
-            let grid = self.grid;
-            let left = cell.checked_sub(1).map(|n| (n, grid.cell_left(cell)));
-            let right = (cell + 1 < grid.cells).then(|| (cell + 1, grid.cell_left(cell + 1)));
-            for (neighbour, face) in left.into_iter().chain(right) {
-                if field.state[neighbour] == FitState::Fitted {
-                    let value = self.taylor[neighbour].eval(&field.coefficients[neighbour], face);
-                    let psi = self.taylor[cell].psi(face);
-                    normal.add(&psi);
-                    add_rhs(&mut rhs, &psi, value);
-                }
+            for (neighbour, face) in self.virtual_points(field, cell).into_iter().flatten() {
+                let value = self.taylor[neighbour].eval(&field.coefficients[neighbour], face);
+                let psi = self.taylor[cell].psi(face);
+                normal.add(&psi);
+                add_rhs(&mut rhs, &psi, value);
             }
             if let Some(a) = solve(&normal, &rhs, kind, 3) {
                 counts.virtual_point_fits = 1;
@@ -131,6 +126,15 @@ impl FitContext<'_> {
         }
         counts.order_reduced_fits = 1;
         (solve_reduced(&normal, &rhs, kind).0, counts)
+    }
+
+    /// The virtual points a repair of `cell` takes from its fitted neighbours: `(neighbour,
+    /// shared face)`, left then right.
+    fn virtual_points(&self, field: &FieldFit, cell: usize) -> [Option<(usize, f64)>; 2] {
+        let grid = self.grid;
+        let left = cell.checked_sub(1).map(|n| (n, grid.cell_left(cell)));
+        let right = (cell + 1 < grid.cells).then(|| (cell + 1, grid.cell_left(cell + 1)));
+        [left, right].map(|point| point.filter(|&(n, _)| field.state[n] == FitState::Fitted))
     }
 
     /// Repair every cell of `field` marked [`FitState::Repaired`] by the plain pass, from
@@ -252,6 +256,9 @@ pub struct TlsMapping {
     momentum: FieldFit,
     remedies: RemedyCounts,
     scatter: CellScatter,
+    /// `method.strain = "adjoint"`: the strain and particle acceleration adjoint to the
+    /// mapping's internal force and momentum ([`adjoint`]).
+    adjoint: Option<adjoint::AdjointScratch>,
 }
 
 impl TlsMapping {
@@ -282,7 +289,17 @@ impl TlsMapping {
             momentum: FieldFit::new(cells),
             remedies: RemedyCounts::default(),
             scatter: CellScatter::default(),
+            adjoint: None,
         })
+    }
+
+    /// With `adjoint`, the particle strain increments and accelerations are the adjoints
+    /// of the mapping's internal force and momentum (`method.strain = "adjoint"`, see
+    /// [`adjoint`]); else the basis gradient and values at the particles (the published
+    /// method).
+    pub fn with_adjoint(mut self, adjoint: bool) -> Self {
+        self.adjoint = adjoint.then(adjoint::AdjointScratch::default);
+        self
     }
 
     /// The active part of each cell used by the last mapping.
@@ -524,6 +541,35 @@ impl Mapping for TlsMapping {
         );
     }
 
+    fn strain_increments<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        velocity: &[f64],
+        dt: f64,
+        deps: &mut Vec<f64>,
+    ) -> bool {
+        if self.adjoint.is_none() {
+            return false;
+        }
+        self.adjoint_strain_increments(basis, particles, velocity, dt, deps);
+        true
+    }
+
+    fn particle_accelerations<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        acceleration: &[f64],
+        out: &mut Vec<f64>,
+    ) -> bool {
+        if self.adjoint.is_none() {
+            return false;
+        }
+        self.adjoint_accelerations(basis, particles, acceleration, out);
+        true
+    }
+
     fn remedies(&self) -> RemedyCounts {
         self.remedies
     }
@@ -556,188 +602,6 @@ fn add_shares(shares: &mut [f64; 3], grid: &Grid, cell: usize, x: f64, volume: f
     shares[2] += to_right;
 }
 
+mod adjoint;
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::grid::{BSplineBasis, DdmpmBasis, LinearBasis, ParticleQuadrature};
-    use crate::linalg::CsrMatrix;
-    use proptest::prelude::*;
-
-    /// Particles with `counts[e]` particles in cell `e` at relative positions from
-    /// `jitter`, random-ish masses, volumes, stresses and velocities; binned.
-    fn layout(grid: &Grid, counts: &[usize], jitter: &[f64]) -> (Particles, CellBins) {
-        let mut p = Particles::default();
-        let mut k = 0;
-        for (e, &n) in counts.iter().enumerate() {
-            for j in 0..n {
-                let t = (j as f64 + 0.05 + 0.9 * jitter[k % jitter.len()]) / n as f64;
-                let x = grid.cell_left(e) + t * grid.h;
-                let volume = grid.h / n as f64 * (0.6 + 0.8 * jitter[(k + 7) % jitter.len()]);
-                let density = 1.0 + jitter[(k + 3) % jitter.len()];
-                p.id.push(k);
-                p.x0.push(x);
-                p.x.push(x);
-                p.u.push(0.0);
-                p.v.push((3.0 * x).sin() - 0.2);
-                p.stress.push((2.0 * x).cos());
-                p.volume.push(volume);
-                p.density.push(density);
-                p.mass.push(density * volume);
-                p.cell.push(e);
-                k += 1;
-            }
-        }
-        let mut bins = CellBins::default();
-        bins.sort(&mut p, grid.cells);
-        (p, bins)
-    }
-
-    fn totals<B: Basis>(
-        basis: &B,
-        mapping: &mut TlsMapping,
-        particles: &Particles,
-        bins: &CellBins,
-    ) -> ([f64; 3], [f64; 3]) {
-        let mut fields = GridFields::new(basis.num_dofs());
-        fields.consistent_mass = Some(CsrMatrix::band(basis.num_dofs(), basis.max_window() - 1));
-        mapping.map_mass_and_internal_force(basis, particles, bins, &mut fields);
-        mapping.map_momentum(basis, particles, bins, &mut fields);
-        let grid_mass: f64 = fields.mass.iter().sum();
-        let matrix_mass: f64 = fields
-            .consistent_mass
-            .as_ref()
-            .map_or(0.0, |m| m.values.iter().sum());
-        let grid_momentum: f64 = fields.momentum.iter().sum();
-        let all_finite = fields
-            .mass
-            .iter()
-            .chain(&fields.internal_force)
-            .chain(&fields.momentum)
-            .all(|v| v.is_finite());
-        assert!(all_finite, "non-finite grid vector");
-        let n = particles.len();
-        let mass: f64 = (0..n).map(|p| particles.mass[p]).sum();
-        let momentum: f64 = (0..n).map(|p| particles.mass[p] * particles.v[p]).sum();
-        let scale: f64 = (0..n)
-            .map(|p| particles.mass[p] * particles.v[p].abs())
-            .sum();
-        (
-            [grid_mass, matrix_mass, grid_momentum],
-            [mass, momentum, scale],
-        )
-    }
-
-    fn check_conservation<B: Basis>(
-        basis: &B,
-        grid: Grid,
-        particles: &Particles,
-        bins: &CellBins,
-    ) -> Result<(), TestCaseError> {
-        for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
-            for remedy in [
-                DegenerateRemedy::VirtualPoints,
-                DegenerateRemedy::OrderReduction,
-            ] {
-                let mut mapping = TlsMapping::new(grid, 4, remedy, totals_rule).unwrap();
-                let ([m_grid, m_matrix, p_grid], [m, p, scale]) =
-                    totals(basis, &mut mapping, particles, bins);
-                prop_assert!(
-                    (m_grid - m).abs() <= 1e-13 * m,
-                    "{:?} mass {} vs {}",
-                    totals_rule,
-                    m_grid,
-                    m
-                );
-                prop_assert!(
-                    (m_matrix - m).abs() <= 1e-13 * m,
-                    "{:?} M^C mass {} vs {}",
-                    totals_rule,
-                    m_matrix,
-                    m
-                );
-                prop_assert!(
-                    (p_grid - p).abs() <= 1e-13 * scale,
-                    "{:?} momentum {} vs {}",
-                    totals_rule,
-                    p_grid,
-                    p
-                );
-            }
-        }
-        Ok(())
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
-        /// Mass (lumped and consistent) and momentum mapped by TLS equal the particle
-        /// totals to round-off for random layouts with 3+ or 1–2 particles per cell, every
-        /// basis, both cell-total rules and both degenerate-cell remedies.
-        #[test]
-        fn mapping_conserves_mass_and_momentum(cells in 2usize..10, sparse in any::<bool>(),
-                                               counts in prop::collection::vec(0usize..6, 10),
-                                               jitter in prop::collection::vec(0.0f64..1.0, 40),
-                                               order in 1usize..4) {
-            let grid = Grid::new(2.0, cells);
-            let counts: Vec<usize> = counts[..cells]
-                .iter()
-                .map(|&c| if sparse { 1 + c % 2 } else { 3 + c })
-                .collect();
-            let (particles, bins) = layout(&grid, &counts, &jitter);
-            check_conservation(&LinearBasis::new(grid), grid, &particles, &bins)?;
-            check_conservation(&BSplineBasis::new(grid, order).unwrap(), grid, &particles, &bins)?;
-            let mut ddmpm = DdmpmBasis::new(grid);
-            ddmpm.update(ParticleQuadrature { x: &particles.x, volume: &particles.volume, cell_start: &bins.cell_start });
-            check_conservation(&ddmpm, grid, &particles, &bins)?;
-        }
-
-        /// A quadratic stress field sampled at 3+ particles per cell is reconstructed
-        /// exactly by the full fit.
-        #[test]
-        fn quadratic_fields_are_reconstructed_exactly(cells in 1usize..8,
-                                                      counts in prop::collection::vec(3usize..7, 8),
-                                                      jitter in prop::collection::vec(0.0f64..1.0, 40),
-                                                      c in prop::array::uniform3(-1.0f64..1.0)) {
-            let grid = Grid::new(3.0, cells);
-            let (mut particles, bins) = layout(&grid, &counts[..cells], &jitter);
-            let q = |x: f64| 2.0 + c[0] + c[1] * x + c[2] * x * x;
-            for p in 0..particles.len() {
-                particles.stress[p] = q(particles.x[p]);
-            }
-            let basis = LinearBasis::new(grid);
-            let mut mapping = TlsMapping::new(grid, 3, DegenerateRemedy::VirtualPoints, CellTotals::Centres).unwrap();
-            let mut fields = GridFields::new(basis.num_dofs());
-            mapping.map_mass_and_internal_force(&basis, &particles, &bins, &mut fields);
-            for e in 0..cells {
-                let taylor = mapping.taylor_cell(e);
-                for t in [0.0, 0.3, 1.0] {
-                    let x = grid.cell_left(e) + t * grid.h;
-                    let x = x.clamp(mapping.domains().lo[e], mapping.domains().hi[e]);
-                    let value = taylor.eval(&mapping.stress()[e], x);
-                    prop_assert!((value - q(x)).abs() < 1e-9, "cell {} x {}: {} vs {}", e, x, value, q(x));
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn one_particle_cells_are_repaired_without_nan() {
-        let grid = Grid::new(1.0, 6);
-        let (particles, bins) = layout(&grid, &[1, 1, 4, 1, 0, 2], &[0.3, 0.8, 0.1, 0.6, 0.5]);
-        let basis = BSplineBasis::new(grid, 2).unwrap();
-        let mut mapping = TlsMapping::new(
-            grid,
-            4,
-            DegenerateRemedy::VirtualPoints,
-            CellTotals::Centres,
-        )
-        .unwrap();
-        let ([m_grid, _, _], [m, _, _]) = totals(&basis, &mut mapping, &particles, &bins);
-        assert!((m_grid - m).abs() < 1e-14 * m);
-        let remedies = mapping.remedies();
-        assert!(remedies.degenerate_fits > 0, "{remedies:?}");
-        assert!(remedies.virtual_point_fits > 0, "{remedies:?}");
-        // The empty cell has no reconstruction.
-        assert_eq!(mapping.stress()[4], [0.0; 3]);
-        assert!(!mapping.domains().is_active(4));
-    }
-}
+mod tests;

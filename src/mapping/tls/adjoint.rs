@@ -1,0 +1,362 @@
+//! The particle strain and acceleration adjoint to the TLS internal force and momentum
+//! (`method.strain = "adjoint"`, docs/reconstruction.md "Adjoint strain and acceleration").
+//!
+//! Every TLS fit is linear in its particle data: the stress coefficients of cell `c` are
+//! `a_c = S_c(r_c)` with `r_c = sum_{p in c} psi_c(x_p) sigma_p` (plus, in a repaired cell,
+//! virtual points `psi_c(x_f) a_n . psi_n(x_f)` from the fitted neighbour `n` at the shared
+//! face `x_f`), and the momentum coefficients are `alpha_c = S_c(r_c, t_c / |e_c|)` with
+//! `r_c = sum psi_c(x_p) rho_p v_p` and the conserved total `t_c = sum_p s_pc m_p v_p`
+//! (`s_pc` the share of particle `p` in cell `c`). So the power of the internal force and
+//! the work of the grid accelerations on the mapped momentum are
+//!
+//! ```text
+//! sum_i v_i f_i = sum_c L_c . a_c,      L_c = sum_g w_g dv(x_g) psi_c(x_g)
+//! sum_i a_i p_i = sum_c A_c . alpha_c,  A_c = sum_g w_g a(x_g) psi_c(x_g)
+//! ```
+//!
+//! with `dv = sum_i dphi_i v_i` and `a = sum_i phi_i a_i` at the Gauss points `x_g` of the
+//! step's quadrature. Pulling the loads `L_c`, `A_c` back through the fits (the transpose
+//! of each small solve, applied by solving for unit right-hand sides with the same matrix
+//! and the same remedy, so it is exact whatever the remedy) gives
+//!
+//! ```text
+//! deps_p = dt (d/dsigma_p sum_i v_i f_i) / V~_p,   V~_p = d/dsigma_p int sigma_hat
+//! a_p    = (d/dv_p sum_i a_i p_i) / m_p
+//! ```
+//!
+//! For a frozen particle configuration the step `d/dt (v_p, sigma_p)` then conserves
+//! `sum m_p v_p^2 / 2 + sum V~_p sigma_p^2 / (2E)`: its eigenvalues are imaginary for every
+//! remedy, totals rule and particle count (the growing modes of the gradient strain with
+//! virtual points or `cell_totals = "centres"` are gone). `V~_p` (the particle's weight in
+//! the integral of the fitted stress) makes the strain exact for a uniform velocity
+//! gradient; `m_p` is exact for a uniform acceleration because the momentum fit conserves
+//! momentum. A particle with `V~_p` below [`MIN_FIT_VOLUME`]` V_p` (a fit that gives it
+//! little, even negative, weight) is normalised by `V_p` instead (counted as
+//! `strain_fallbacks`): any positive weight keeps the conjugacy, so the step stays neutral;
+//! only that particle's strain under a uniform gradient is then not exact.
+
+use super::{add_shares, FieldFit, FitContext, FitState, TlsMapping, CELLS_PER_TASK};
+use crate::config::{CellTotals, DegenerateRemedy};
+use crate::grid::Basis;
+use crate::numerics::taylor::{solve, solve_reduced, FitKind, NormalMatrix};
+use crate::particles::Particles;
+use rayon::prelude::*;
+
+/// Smallest accepted `V~_p / V_p`.
+pub const MIN_FIT_VOLUME: f64 = 0.1;
+/// Particles per rayon task.
+const PARTICLES_PER_TASK: usize = 1024;
+
+/// Derivatives of a cell's load `L . a_c` with respect to the fit's inputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Pullback {
+    /// `d (L . a_c) / d r_c`.
+    rhs: [f64; 3],
+    /// `d (L . a_c) / d a_1` (conservative fits; 0 for full fits).
+    fixed_mean: f64,
+}
+
+/// Scratch of the adjoint passes.
+#[derive(Clone, Debug, Default)]
+pub(super) struct AdjointScratch {
+    loads: Vec<[f64; 3]>,
+    volume_loads: Vec<[f64; 3]>,
+    pullbacks: Vec<Pullback>,
+    volume_pullbacks: Vec<Pullback>,
+}
+
+#[inline]
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// How a cell's fit was solved: its normal matrix (with any virtual points), whether
+/// order reduction was allowed, and the virtual points.
+struct Route {
+    normal: NormalMatrix,
+    reduced: bool,
+    virtual_points: [Option<(usize, f64)>; 2],
+}
+
+impl FitContext<'_> {
+    /// The route of `cell`'s fit of `field` (as in `plain_fit` / `FitContext::repair`);
+    /// `None` for an inactive cell.
+    fn route(&self, field: &FieldFit, cell: usize, conservative: bool) -> Option<Route> {
+        let mut route = Route {
+            normal: self.sums[cell].normal,
+            reduced: false,
+            virtual_points: [None; 2],
+        };
+        match field.state[cell] {
+            FitState::Inactive => return None,
+            FitState::Fitted => {}
+            FitState::Repaired => {
+                route.reduced = true;
+                if self.remedy == DegenerateRemedy::VirtualPoints {
+                    route.virtual_points = self.virtual_points(field, cell);
+                    for (_, face) in route.virtual_points.into_iter().flatten() {
+                        route.normal.add(&self.taylor[cell].psi(face));
+                    }
+                    // The well-posedness test depends on the matrix only.
+                    route.reduced =
+                        solve(&route.normal, &[0.0; 3], kind(conservative, 0.0), 3).is_none();
+                }
+            }
+        }
+        Some(route)
+    }
+}
+
+#[inline]
+fn kind(conservative: bool, mean: f64) -> FitKind {
+    if conservative {
+        FitKind::Conservative(mean)
+    } else {
+        FitKind::Full
+    }
+}
+
+impl Route {
+    /// The fit of this route for right-hand side `rhs` and fixed mean `mean`.
+    fn fit(&self, rhs: &[f64; 3], mean: f64, conservative: bool) -> [f64; 3] {
+        let kind = kind(conservative, mean);
+        if self.reduced {
+            solve_reduced(&self.normal, rhs, kind).0
+        } else {
+            solve(&self.normal, rhs, kind, 3).unwrap_or([0.0; 3])
+        }
+    }
+
+    /// `load . S(rhs, mean)` differentiated by `rhs` and `mean`: the fit is linear, so
+    /// the derivatives are the load against the fits of unit inputs.
+    fn pull_back(&self, load: &[f64; 3], conservative: bool) -> Pullback {
+        let unit = |j: usize| {
+            let mut e = [0.0; 3];
+            e[j] = 1.0;
+            dot(load, &self.fit(&e, 0.0, conservative))
+        };
+        Pullback {
+            rhs: [unit(0), unit(1), unit(2)],
+            fixed_mean: if conservative {
+                dot(load, &self.fit(&[0.0; 3], 1.0, conservative))
+            } else {
+                0.0
+            },
+        }
+    }
+}
+
+/// Pull the per-cell loads back through the fits of `field`: the repaired cells first (in
+/// parallel), whose virtual points add loads to their fitted neighbours (in cell order),
+/// then the fitted cells (in parallel). `loads` is consumed.
+fn pull_back_field(
+    context: &FitContext,
+    field: &FieldFit,
+    conservative: bool,
+    loads: &mut [[f64; 3]],
+    out: &mut Vec<Pullback>,
+) {
+    out.clear();
+    out.resize(loads.len(), Pullback::default());
+    let pass = |out: &mut [Pullback], loads: &[[f64; 3]], state: FitState| {
+        out.par_iter_mut()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .filter(|(cell, _)| field.state[*cell] == state)
+            .for_each(|(cell, pullback)| {
+                if let Some(route) = context.route(field, cell, conservative) {
+                    *pullback = route.pull_back(&loads[cell], conservative);
+                }
+            });
+    };
+    pass(out, loads, FitState::Repaired);
+    for (cell, _) in field
+        .state
+        .iter()
+        .enumerate()
+        .filter(|(_, &s)| s == FitState::Repaired)
+    {
+        let Some(route) = context.route(field, cell, conservative) else {
+            continue;
+        };
+        for (neighbour, face) in route.virtual_points.into_iter().flatten() {
+            // A virtual point adds `psi_c(x_f) (a_n . psi_n(x_f))` to the right-hand side.
+            let weight = dot(&out[cell].rhs, &context.taylor[cell].psi(face));
+            let psi = context.taylor[neighbour].psi(face);
+            for (load, psi) in loads[neighbour].iter_mut().zip(psi) {
+                *load += weight * psi;
+            }
+        }
+    }
+    pass(out, loads, FitState::Fitted);
+}
+
+impl TlsMapping {
+    fn context(&self) -> FitContext<'_> {
+        FitContext {
+            grid: &self.grid,
+            remedy: self.remedy,
+            taylor: &self.taylor,
+            sums: &self.sums,
+        }
+    }
+
+    /// Fill `deps` with the adjoint strain increments (positions of the last
+    /// [`crate::mapping::Mapping::map_mass_and_internal_force`]).
+    pub(super) fn adjoint_strain_increments<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        velocity: &[f64],
+        dt: f64,
+        deps: &mut Vec<f64>,
+    ) {
+        let mut scratch = self.adjoint.take().unwrap_or_default();
+        let cells = self.grid.cells;
+        let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
+        scratch.loads.clear();
+        scratch.loads.resize(cells, [0.0; 3]);
+        scratch.volume_loads.clear();
+        scratch.volume_loads.resize(cells, [0.0; 3]);
+        scratch
+            .loads
+            .par_iter_mut()
+            .zip(scratch.volume_loads.par_iter_mut())
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, (load, volume_load))| {
+                points.for_each_shape(basis, domains, cell, |x, w, shape| {
+                    let psi = taylor[cell].psi(x);
+                    let power = w * shape.gradient(velocity);
+                    for j in 0..3 {
+                        load[j] += power * psi[j];
+                        volume_load[j] += w * psi[j];
+                    }
+                });
+            });
+        let context = self.context();
+        pull_back_field(
+            &context,
+            &self.stress,
+            false,
+            &mut scratch.loads,
+            &mut scratch.pullbacks,
+        );
+        pull_back_field(
+            &context,
+            &self.stress,
+            false,
+            &mut scratch.volume_loads,
+            &mut scratch.volume_pullbacks,
+        );
+        let (work, fit_volume) = (&scratch.pullbacks, &scratch.volume_pullbacks);
+        let Particles {
+            x, cell, volume, ..
+        } = particles;
+        deps.resize(x.len(), 0.0);
+        let fallbacks: u64 = deps
+            .par_chunks_mut(PARTICLES_PER_TASK)
+            .enumerate()
+            .map(|(chunk, deps)| {
+                let start = chunk * PARTICLES_PER_TASK;
+                let mut fallbacks = 0;
+                for (k, deps) in deps.iter_mut().enumerate() {
+                    let p = start + k;
+                    let c = cell[p];
+                    let psi = taylor[c].psi(x[p]);
+                    let fitted = dot(&fit_volume[c].rhs, &psi);
+                    // NaN falls back too.
+                    let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
+                        fitted
+                    } else {
+                        fallbacks += 1;
+                        volume[p]
+                    };
+                    *deps = dt * dot(&work[c].rhs, &psi) / weight;
+                }
+                fallbacks
+            })
+            .sum();
+        self.remedies.strain_fallbacks += fallbacks;
+        self.adjoint = Some(scratch);
+    }
+
+    /// Fill `out` with the adjoint particle accelerations (positions and momentum fit of
+    /// the last [`crate::mapping::Mapping::map_momentum`]).
+    pub(super) fn adjoint_accelerations<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        acceleration: &[f64],
+        out: &mut Vec<f64>,
+    ) {
+        let mut scratch = self.adjoint.take().unwrap_or_default();
+        let cells = self.grid.cells;
+        let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
+        scratch.loads.clear();
+        scratch.loads.resize(cells, [0.0; 3]);
+        scratch
+            .loads
+            .par_iter_mut()
+            .with_min_len(CELLS_PER_TASK)
+            .enumerate()
+            .for_each(|(cell, load)| {
+                points.for_each_shape(basis, domains, cell, |x, w, shape| {
+                    let psi = taylor[cell].psi(x);
+                    let work = w * shape.interpolate(acceleration);
+                    for j in 0..3 {
+                        load[j] += work * psi[j];
+                    }
+                });
+            });
+        pull_back_field(
+            &self.context(),
+            &self.momentum,
+            true,
+            &mut scratch.loads,
+            &mut scratch.pullbacks,
+        );
+        // `d a_1 / d t_c = 1 / |e_c|`.
+        let pullbacks = &scratch.pullbacks;
+        let per_total = |c: usize| {
+            if domains.is_active(c) {
+                pullbacks[c].fixed_mean / domains.length(c)
+            } else {
+                0.0
+            }
+        };
+        let by_domains = self.totals == CellTotals::Domains;
+        let mesh = &self.grid;
+        let Particles {
+            x,
+            cell,
+            volume,
+            mass,
+            density,
+            ..
+        } = particles;
+        out.resize(x.len(), 0.0);
+        out.par_chunks_mut(PARTICLES_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                let start = chunk * PARTICLES_PER_TASK;
+                for (k, a) in out.iter_mut().enumerate() {
+                    let p = start + k;
+                    let c = cell[p];
+                    let mut shares = [0.0; 3];
+                    if by_domains {
+                        add_shares(&mut shares, mesh, c, x[p], volume[p], mass[p]);
+                    } else {
+                        shares[1] = mass[p];
+                    }
+                    let left = if c > 0 { per_total(c - 1) } else { 0.0 };
+                    let right = if c + 1 < cells { per_total(c + 1) } else { 0.0 };
+                    let through_totals =
+                        shares[0] * left + shares[1] * per_total(c) + shares[2] * right;
+                    let through_fit = dot(&pullbacks[c].rhs, &taylor[c].psi(x[p])) * density[p];
+                    *a = (through_fit + through_totals) / mass[p];
+                }
+            });
+        self.adjoint = Some(scratch);
+    }
+}

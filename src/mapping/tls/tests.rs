@@ -1,0 +1,334 @@
+//! Tests of the TLS mapping: conservation, exactness, remedies.
+
+use super::*;
+use crate::grid::{BSplineBasis, DdmpmBasis, LinearBasis, ParticleQuadrature};
+use crate::linalg::CsrMatrix;
+use proptest::prelude::*;
+
+/// Particles with `counts[e]` particles in cell `e` at relative positions from
+/// `jitter`, random-ish masses, volumes, stresses and velocities; binned.
+fn layout(grid: &Grid, counts: &[usize], jitter: &[f64]) -> (Particles, CellBins) {
+    let mut p = Particles::default();
+    let mut k = 0;
+    for (e, &n) in counts.iter().enumerate() {
+        for j in 0..n {
+            let t = (j as f64 + 0.05 + 0.9 * jitter[k % jitter.len()]) / n as f64;
+            let x = grid.cell_left(e) + t * grid.h;
+            let volume = grid.h / n as f64 * (0.6 + 0.8 * jitter[(k + 7) % jitter.len()]);
+            let density = 1.0 + jitter[(k + 3) % jitter.len()];
+            p.id.push(k);
+            p.x0.push(x);
+            p.x.push(x);
+            p.u.push(0.0);
+            p.v.push((3.0 * x).sin() - 0.2);
+            p.stress.push((2.0 * x).cos());
+            p.volume.push(volume);
+            p.density.push(density);
+            p.mass.push(density * volume);
+            p.cell.push(e);
+            k += 1;
+        }
+    }
+    let mut bins = CellBins::default();
+    bins.sort(&mut p, grid.cells);
+    (p, bins)
+}
+
+fn totals<B: Basis>(
+    basis: &B,
+    mapping: &mut TlsMapping,
+    particles: &Particles,
+    bins: &CellBins,
+) -> ([f64; 3], [f64; 3]) {
+    let mut fields = GridFields::new(basis.num_dofs());
+    fields.consistent_mass = Some(CsrMatrix::band(basis.num_dofs(), basis.max_window() - 1));
+    mapping.map_mass_and_internal_force(basis, particles, bins, &mut fields);
+    mapping.map_momentum(basis, particles, bins, &mut fields);
+    let grid_mass: f64 = fields.mass.iter().sum();
+    let matrix_mass: f64 = fields
+        .consistent_mass
+        .as_ref()
+        .map_or(0.0, |m| m.values.iter().sum());
+    let grid_momentum: f64 = fields.momentum.iter().sum();
+    let all_finite = fields
+        .mass
+        .iter()
+        .chain(&fields.internal_force)
+        .chain(&fields.momentum)
+        .all(|v| v.is_finite());
+    assert!(all_finite, "non-finite grid vector");
+    let n = particles.len();
+    let mass: f64 = (0..n).map(|p| particles.mass[p]).sum();
+    let momentum: f64 = (0..n).map(|p| particles.mass[p] * particles.v[p]).sum();
+    let scale: f64 = (0..n)
+        .map(|p| particles.mass[p] * particles.v[p].abs())
+        .sum();
+    (
+        [grid_mass, matrix_mass, grid_momentum],
+        [mass, momentum, scale],
+    )
+}
+
+fn check_conservation<B: Basis>(
+    basis: &B,
+    grid: Grid,
+    particles: &Particles,
+    bins: &CellBins,
+) -> Result<(), TestCaseError> {
+    for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
+        for remedy in [
+            DegenerateRemedy::VirtualPoints,
+            DegenerateRemedy::OrderReduction,
+        ] {
+            let mut mapping = TlsMapping::new(grid, 4, remedy, totals_rule).unwrap();
+            let ([m_grid, m_matrix, p_grid], [m, p, scale]) =
+                totals(basis, &mut mapping, particles, bins);
+            prop_assert!(
+                (m_grid - m).abs() <= 1e-13 * m,
+                "{:?} mass {} vs {}",
+                totals_rule,
+                m_grid,
+                m
+            );
+            prop_assert!(
+                (m_matrix - m).abs() <= 1e-13 * m,
+                "{:?} M^C mass {} vs {}",
+                totals_rule,
+                m_matrix,
+                m
+            );
+            prop_assert!(
+                (p_grid - p).abs() <= 1e-13 * scale,
+                "{:?} momentum {} vs {}",
+                totals_rule,
+                p_grid,
+                p
+            );
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Mass (lumped and consistent) and momentum mapped by TLS equal the particle
+    /// totals to round-off for random layouts with 3+ or 1–2 particles per cell, every
+    /// basis, both cell-total rules and both degenerate-cell remedies.
+    #[test]
+    fn mapping_conserves_mass_and_momentum(cells in 2usize..10, sparse in any::<bool>(),
+                                           counts in prop::collection::vec(0usize..6, 10),
+                                           jitter in prop::collection::vec(0.0f64..1.0, 40),
+                                           order in 1usize..4) {
+        let grid = Grid::new(2.0, cells);
+        let counts: Vec<usize> = counts[..cells]
+            .iter()
+            .map(|&c| if sparse { 1 + c % 2 } else { 3 + c })
+            .collect();
+        let (particles, bins) = layout(&grid, &counts, &jitter);
+        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins)?;
+        check_conservation(&BSplineBasis::new(grid, order).unwrap(), grid, &particles, &bins)?;
+        let mut ddmpm = DdmpmBasis::new(grid);
+        ddmpm.update(ParticleQuadrature { x: &particles.x, volume: &particles.volume, cell_start: &bins.cell_start });
+        check_conservation(&ddmpm, grid, &particles, &bins)?;
+    }
+
+    /// A quadratic stress field sampled at 3+ particles per cell is reconstructed
+    /// exactly by the full fit.
+    #[test]
+    fn quadratic_fields_are_reconstructed_exactly(cells in 1usize..8,
+                                                  counts in prop::collection::vec(3usize..7, 8),
+                                                  jitter in prop::collection::vec(0.0f64..1.0, 40),
+                                                  c in prop::array::uniform3(-1.0f64..1.0)) {
+        let grid = Grid::new(3.0, cells);
+        let (mut particles, bins) = layout(&grid, &counts[..cells], &jitter);
+        let q = |x: f64| 2.0 + c[0] + c[1] * x + c[2] * x * x;
+        for p in 0..particles.len() {
+            particles.stress[p] = q(particles.x[p]);
+        }
+        let basis = LinearBasis::new(grid);
+        let mut mapping = TlsMapping::new(grid, 3, DegenerateRemedy::VirtualPoints, CellTotals::Centres).unwrap();
+        let mut fields = GridFields::new(basis.num_dofs());
+        mapping.map_mass_and_internal_force(&basis, &particles, &bins, &mut fields);
+        for e in 0..cells {
+            let taylor = mapping.taylor_cell(e);
+            for t in [0.0, 0.3, 1.0] {
+                let x = grid.cell_left(e) + t * grid.h;
+                let x = x.clamp(mapping.domains().lo[e], mapping.domains().hi[e]);
+                let value = taylor.eval(&mapping.stress()[e], x);
+                prop_assert!((value - q(x)).abs() < 1e-9, "cell {} x {}: {} vs {}", e, x, value, q(x));
+            }
+        }
+    }
+}
+
+#[test]
+fn one_particle_cells_are_repaired_without_nan() {
+    let grid = Grid::new(1.0, 6);
+    let (particles, bins) = layout(&grid, &[1, 1, 4, 1, 0, 2], &[0.3, 0.8, 0.1, 0.6, 0.5]);
+    let basis = BSplineBasis::new(grid, 2).unwrap();
+    let mut mapping = TlsMapping::new(
+        grid,
+        4,
+        DegenerateRemedy::VirtualPoints,
+        CellTotals::Centres,
+    )
+    .unwrap();
+    let ([m_grid, _, _], [m, _, _]) = totals(&basis, &mut mapping, &particles, &bins);
+    assert!((m_grid - m).abs() < 1e-14 * m);
+    let remedies = mapping.remedies();
+    assert!(remedies.degenerate_fits > 0, "{remedies:?}");
+    assert!(remedies.virtual_point_fits > 0, "{remedies:?}");
+    // The empty cell has no reconstruction.
+    assert_eq!(mapping.stress()[4], [0.0; 3]);
+    assert!(!mapping.domains().is_active(4));
+}
+
+/// `sum_i v_i f_i(sigma)` against `sum_p V~_p sigma_p deps_p / dt` (the adjoint strain's
+/// conjugacy, `V~_p` probed as the particle's weight in `int sigma_hat`), and
+/// `sum_i a_i p_i(v)` against `sum_p m_p v_p a_p` (the adjoint acceleration's), relative
+/// to the scale of the terms.
+fn adjoint_conjugacy<B: Basis>(
+    basis: &B,
+    mapping: &mut TlsMapping,
+    particles: &mut Particles,
+    bins: &CellBins,
+    grid_velocity: &[f64],
+) -> (f64, f64) {
+    let n = particles.len();
+    let dt = 0.5;
+    let mut fields = GridFields::new(basis.num_dofs());
+    // V~_p = d/dsigma_p sum_c |e_c| a_1c, probed with unit stresses.
+    let stress = particles.stress.clone();
+    let mut fit_volume = vec![0.0; n];
+    for (q, fit_volume) in fit_volume.iter_mut().enumerate() {
+        particles.stress.iter_mut().for_each(|s| *s = 0.0);
+        particles.stress[q] = 1.0;
+        mapping.map_mass_and_internal_force(basis, particles, bins, &mut fields);
+        *fit_volume = (0..grid_cells(mapping))
+            .map(|c| mapping.domains().length(c) * mapping.stress()[c][0])
+            .sum();
+    }
+    particles.stress.copy_from_slice(&stress);
+    mapping.map_mass_and_internal_force(basis, particles, bins, &mut fields);
+    mapping.map_momentum(basis, particles, bins, &mut fields);
+    let power: Vec<f64> = (0..fields.internal_force.len())
+        .map(|i| grid_velocity[i] * fields.internal_force[i])
+        .collect();
+    let work: Vec<f64> = (0..fields.momentum.len())
+        .map(|i| grid_velocity[i] * fields.momentum[i])
+        .collect();
+    let mut deps = Vec::new();
+    assert!(mapping.strain_increments(basis, particles, grid_velocity, dt, &mut deps));
+    // The weight of the adjoint strain: V~_p, or V_p where V~_p is small.
+    let weight = |p: usize| {
+        let volume = particles.volume[p];
+        if fit_volume[p] > super::adjoint::MIN_FIT_VOLUME * volume {
+            fit_volume[p]
+        } else {
+            volume
+        }
+    };
+    let conjugate: Vec<f64> = (0..n)
+        .map(|p| weight(p) * particles.stress[p] * deps[p] / dt)
+        .collect();
+    let mut accelerations = Vec::new();
+    // The grid velocities serve as grid accelerations.
+    assert!(mapping.particle_accelerations(basis, particles, grid_velocity, &mut accelerations));
+    let kinetic: Vec<f64> = (0..n)
+        .map(|p| particles.mass[p] * particles.v[p] * accelerations[p])
+        .collect();
+    let relative = |a: &[f64], b: &[f64]| {
+        let scale: f64 = a.iter().chain(b).map(|t| t.abs()).sum();
+        (a.iter().sum::<f64>() - b.iter().sum::<f64>()).abs() / scale.max(f64::MIN_POSITIVE)
+    };
+    (relative(&power, &conjugate), relative(&work, &kinetic))
+}
+
+fn grid_cells(mapping: &TlsMapping) -> usize {
+    mapping.domains().lo.len()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+    /// The adjoint strain is work-conjugate to the TLS internal force and the adjoint
+    /// acceleration to the TLS momentum, to round-off, for random layouts with empty,
+    /// one-particle and full cells, linear and quadratic B-spline bases, both remedies and
+    /// both cell-total rules.
+    #[test]
+    fn adjoint_strain_and_acceleration_are_conjugate(
+        counts in prop::collection::vec(0usize..5, 8),
+        jitter in prop::collection::vec(0.0f64..1.0, 40),
+        velocities in prop::collection::vec(-1.0f64..1.0, 12),
+        quadratic in any::<bool>(),
+    ) {
+        let grid = Grid::new(2.0, 8);
+        let (mut particles, bins) = layout(&grid, &counts, &jitter);
+        prop_assume!(!particles.is_empty());
+        for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
+            for remedy in [DegenerateRemedy::VirtualPoints, DegenerateRemedy::OrderReduction] {
+                let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
+                    .unwrap()
+                    .with_adjoint(true);
+                let (strain, momentum) = if quadratic {
+                    let basis = BSplineBasis::new(grid, 2).unwrap();
+                    let v = &velocities[..basis.num_dofs()];
+                    adjoint_conjugacy(&basis, &mut mapping, &mut particles, &bins, v)
+                } else {
+                    let basis = LinearBasis::new(grid);
+                    let v = &velocities[..basis.num_dofs()];
+                    adjoint_conjugacy(&basis, &mut mapping, &mut particles, &bins, v)
+                };
+                prop_assert!(strain < 1e-13, "{totals_rule:?} {remedy:?}: strain {strain:e}");
+                prop_assert!(momentum < 1e-13, "{totals_rule:?} {remedy:?}: momentum {momentum:e}");
+            }
+        }
+    }
+}
+
+/// A uniform velocity gradient gives every particle that gradient as its adjoint strain
+/// rate (but the few normalised by `V_p`), and a uniform grid acceleration every particle
+/// that acceleration (both remedies, both totals rules, cells of 1 to 4 particles and an
+/// empty one).
+#[test]
+fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
+    let grid = Grid::new(1.0, 6);
+    let (particles, bins) = layout(&grid, &[2, 1, 4, 3, 0, 2], &[0.3, 0.8, 0.1, 0.6, 0.5]);
+    let basis = LinearBasis::new(grid);
+    let (gradient, acceleration) = (0.7, -2.5);
+    let velocity: Vec<f64> = (0..basis.num_dofs())
+        .map(|i| gradient * grid.cell_left(i))
+        .collect();
+    let uniform = vec![acceleration; basis.num_dofs()];
+    for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
+        for remedy in [
+            DegenerateRemedy::VirtualPoints,
+            DegenerateRemedy::OrderReduction,
+        ] {
+            let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
+                .unwrap()
+                .with_adjoint(true);
+            let mut fields = GridFields::new(basis.num_dofs());
+            mapping.map_mass_and_internal_force(&basis, &particles, &bins, &mut fields);
+            mapping.map_momentum(&basis, &particles, &bins, &mut fields);
+            let (mut deps, mut a) = (Vec::new(), Vec::new());
+            mapping.strain_increments(&basis, &particles, &velocity, 0.1, &mut deps);
+            mapping.particle_accelerations(&basis, &particles, &uniform, &mut a);
+            let mut inexact = 0;
+            for p in 0..particles.len() {
+                inexact += usize::from((deps[p] - 0.1 * gradient).abs() > 1e-14);
+                assert!((a[p] - acceleration).abs() < 1e-13, "{p}: {}", a[p]);
+            }
+            // Only a particle normalised by V_p (a fallback) may miss the gradient.
+            let remedies = mapping.remedies();
+            assert!(
+                inexact as u64 <= remedies.strain_fallbacks,
+                "{inexact}, {remedies:?}"
+            );
+            assert!(
+                inexact < particles.len() / 4,
+                "{totals_rule:?} {remedy:?}: {inexact}"
+            );
+            assert!(remedies.degenerate_fits > 0);
+        }
+    }
+}
