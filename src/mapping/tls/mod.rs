@@ -32,6 +32,10 @@
 //! `theta = a_1 / (a_1 - min_g rho_hat(x_g))` (Zhang–Shu), which keeps `a_1` (mass) and
 //! makes `rho_hat >= 0` at every Gauss point, so the lumped masses are non-negative and
 //! `M^C` is positive semi-definite.
+//!
+//! **Adjoint strain and acceleration** (`method.strain = "adjoint"`, [`adjoint`]): the
+//! transposes of the linear maps particle stress → internal force and particle velocity →
+//! momentum replace the basis gradient and values at the particles in the particle update.
 
 use super::quadrature::{integrate_mass_and_force, integrate_momentum, CellDomains, GaussPoints};
 use super::{CellScatter, GridFields, Mapping, RemedyCounts};
@@ -602,6 +606,6 @@ fn add_shares(shares: &mut [f64; 3], grid: &Grid, cell: usize, x: f64, volume: f
     shares[2] += to_right;
 }
 
-mod adjoint;
+pub mod adjoint;
 #[cfg(test)]
 mod tests;
