@@ -70,12 +70,11 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// How a cell's fit was solved: its normal matrix (with any virtual points), whether
-/// order reduction was allowed, and the virtual points.
+/// How a cell's fit was solved: its normal matrix (with any virtual points) and whether
+/// order reduction was allowed.
 struct Route {
     normal: NormalMatrix,
     reduced: bool,
-    virtual_points: [Option<(usize, f64)>; 2],
 }
 
 impl FitContext<'_> {
@@ -85,7 +84,6 @@ impl FitContext<'_> {
         let mut route = Route {
             normal: self.sums[cell].normal,
             reduced: false,
-            virtual_points: [None; 2],
         };
         match field.state[cell] {
             FitState::Inactive => return None,
@@ -93,8 +91,7 @@ impl FitContext<'_> {
             FitState::Repaired => {
                 route.reduced = true;
                 if self.remedy == DegenerateRemedy::VirtualPoints {
-                    route.virtual_points = self.virtual_points(field, cell);
-                    for (_, face) in route.virtual_points.into_iter().flatten() {
+                    for (_, face) in self.virtual_points(field, cell).into_iter().flatten() {
                         route.normal.add(&self.taylor[cell].psi(face));
                     }
                     // The well-posedness test depends on the matrix only.
@@ -170,16 +167,15 @@ fn pull_back_field(
             });
     };
     pass(out, loads, FitState::Repaired);
-    for (cell, _) in field
+    let repaired = field
         .state
         .iter()
         .enumerate()
         .filter(|(_, &s)| s == FitState::Repaired)
-    {
-        let Some(route) = context.route(field, cell, conservative) else {
-            continue;
-        };
-        for (neighbour, face) in route.virtual_points.into_iter().flatten() {
+        .map(|(cell, _)| cell);
+    let with_virtual_points = context.remedy == DegenerateRemedy::VirtualPoints;
+    for cell in repaired.filter(|_| with_virtual_points) {
+        for (neighbour, face) in context.virtual_points(field, cell).into_iter().flatten() {
             // A virtual point adds `psi_c(x_f) (a_n . psi_n(x_f))` to the right-hand side.
             let weight = dot(&out[cell].rhs, &context.taylor[cell].psi(face));
             let psi = context.taylor[neighbour].psi(face);
