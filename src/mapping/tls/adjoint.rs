@@ -56,13 +56,14 @@ pub(super) struct Pullback {
     fixed_mean: f64,
 }
 
-/// Scratch of the adjoint passes.
+/// Scratch of the adjoint passes: per cell, the loads and their pull-backs (strain: the
+/// power and the volume load; acceleration: the work).
 #[derive(Clone, Debug, Default)]
 pub(super) struct AdjointScratch {
-    loads: Vec<[f64; 3]>,
-    volume_loads: Vec<[f64; 3]>,
-    pullbacks: Vec<Pullback>,
-    volume_pullbacks: Vec<Pullback>,
+    strain_loads: Vec<[[f64; 3]; 2]>,
+    strain_pullbacks: Vec<[Pullback; 2]>,
+    momentum_loads: Vec<[[f64; 3]; 1]>,
+    momentum_pullbacks: Vec<[Pullback; 1]>,
 }
 
 #[inline]
@@ -124,38 +125,40 @@ impl Route {
         }
     }
 
-    /// `load . S(rhs, mean)` differentiated by `rhs` and `mean`: the fit is linear, so
-    /// the derivatives are the load against the fits of unit inputs.
-    fn pull_back(&self, load: &[f64; 3], conservative: bool) -> Pullback {
-        let unit = |j: usize| {
+    /// `load . S(rhs, mean)` differentiated by `rhs` and `mean`, for each of `K` loads:
+    /// the fit is linear, so the derivatives are the load against the fits of unit inputs
+    /// (solved once for all loads).
+    fn pull_back<const K: usize>(
+        &self,
+        loads: &[[f64; 3]; K],
+        conservative: bool,
+    ) -> [Pullback; K] {
+        let unit_fits = [0, 1, 2].map(|j| {
             let mut e = [0.0; 3];
             e[j] = 1.0;
-            dot(load, &self.fit(&e, 0.0, conservative))
-        };
-        Pullback {
-            rhs: [unit(0), unit(1), unit(2)],
-            fixed_mean: if conservative {
-                dot(load, &self.fit(&[0.0; 3], 1.0, conservative))
-            } else {
-                0.0
-            },
-        }
+            self.fit(&e, 0.0, conservative)
+        });
+        let mean_fit = conservative.then(|| self.fit(&[0.0; 3], 1.0, conservative));
+        loads.map(|load| Pullback {
+            rhs: unit_fits.map(|fit| dot(&load, &fit)),
+            fixed_mean: mean_fit.map_or(0.0, |fit| dot(&load, &fit)),
+        })
     }
 }
 
 /// Pull the per-cell loads back through the fits of `field`: the repaired cells first (in
 /// parallel), whose virtual points add loads to their fitted neighbours (in cell order),
 /// then the fitted cells (in parallel). `loads` is consumed.
-fn pull_back_field(
+fn pull_back_field<const K: usize>(
     context: &FitContext,
     field: &FieldFit,
     conservative: bool,
-    loads: &mut [[f64; 3]],
-    out: &mut Vec<Pullback>,
+    loads: &mut [[[f64; 3]; K]],
+    out: &mut Vec<[Pullback; K]>,
 ) {
     out.clear();
-    out.resize(loads.len(), Pullback::default());
-    let pass = |out: &mut [Pullback], loads: &[[f64; 3]], state: FitState| {
+    out.resize(loads.len(), [Pullback::default(); K]);
+    let pass = |out: &mut [[Pullback; K]], loads: &[[[f64; 3]; K]], state: FitState| {
         out.par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
@@ -177,10 +180,15 @@ fn pull_back_field(
     for cell in repaired.filter(|_| with_virtual_points) {
         for (neighbour, face) in context.virtual_points(field, cell).into_iter().flatten() {
             // A virtual point adds `psi_c(x_f) (a_n . psi_n(x_f))` to the right-hand side.
-            let weight = dot(&out[cell].rhs, &context.taylor[cell].psi(face));
-            let psi = context.taylor[neighbour].psi(face);
-            for (load, psi) in loads[neighbour].iter_mut().zip(psi) {
-                *load += weight * psi;
+            let (psi_cell, psi) = (
+                context.taylor[cell].psi(face),
+                context.taylor[neighbour].psi(face),
+            );
+            for (load, pullback) in loads[neighbour].iter_mut().zip(&out[cell]) {
+                let weight = dot(&pullback.rhs, &psi_cell);
+                for (load, psi) in load.iter_mut().zip(psi) {
+                    *load += weight * psi;
+                }
             }
         }
     }
@@ -210,17 +218,14 @@ impl TlsMapping {
         let mut scratch = self.adjoint.take().unwrap_or_default();
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
-        scratch.loads.clear();
-        scratch.loads.resize(cells, [0.0; 3]);
-        scratch.volume_loads.clear();
-        scratch.volume_loads.resize(cells, [0.0; 3]);
+        scratch.strain_loads.clear();
+        scratch.strain_loads.resize(cells, [[0.0; 3]; 2]);
         scratch
-            .loads
+            .strain_loads
             .par_iter_mut()
-            .zip(scratch.volume_loads.par_iter_mut())
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, (load, volume_load))| {
+            .for_each(|(cell, [load, volume_load])| {
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let power = w * shape.gradient(velocity);
@@ -230,22 +235,14 @@ impl TlsMapping {
                     }
                 });
             });
-        let context = self.context();
         pull_back_field(
-            &context,
+            &self.context(),
             &self.stress,
             false,
-            &mut scratch.loads,
-            &mut scratch.pullbacks,
+            &mut scratch.strain_loads,
+            &mut scratch.strain_pullbacks,
         );
-        pull_back_field(
-            &context,
-            &self.stress,
-            false,
-            &mut scratch.volume_loads,
-            &mut scratch.volume_pullbacks,
-        );
-        let (work, fit_volume) = (&scratch.pullbacks, &scratch.volume_pullbacks);
+        let pullbacks = &scratch.strain_pullbacks;
         let Particles {
             x, cell, volume, ..
         } = particles;
@@ -260,7 +257,8 @@ impl TlsMapping {
                     let p = start + k;
                     let c = cell[p];
                     let psi = taylor[c].psi(x[p]);
-                    let fitted = dot(&fit_volume[c].rhs, &psi);
+                    let [work, fit_volume] = &pullbacks[c];
+                    let fitted = dot(&fit_volume.rhs, &psi);
                     // NaN falls back too.
                     let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
                         fitted
@@ -268,7 +266,7 @@ impl TlsMapping {
                         fallbacks += 1;
                         volume[p]
                     };
-                    *deps = dt * dot(&work[c].rhs, &psi) / weight;
+                    *deps = dt * dot(&work.rhs, &psi) / weight;
                 }
                 fallbacks
             })
@@ -289,14 +287,14 @@ impl TlsMapping {
         let mut scratch = self.adjoint.take().unwrap_or_default();
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
-        scratch.loads.clear();
-        scratch.loads.resize(cells, [0.0; 3]);
+        scratch.momentum_loads.clear();
+        scratch.momentum_loads.resize(cells, [[0.0; 3]]);
         scratch
-            .loads
+            .momentum_loads
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, load)| {
+            .for_each(|(cell, [load])| {
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let work = w * shape.interpolate(acceleration);
@@ -309,14 +307,14 @@ impl TlsMapping {
             &self.context(),
             &self.momentum,
             true,
-            &mut scratch.loads,
-            &mut scratch.pullbacks,
+            &mut scratch.momentum_loads,
+            &mut scratch.momentum_pullbacks,
         );
         // `d a_1 / d t_c = 1 / |e_c|`.
-        let pullbacks = &scratch.pullbacks;
+        let pullbacks = &scratch.momentum_pullbacks;
         let per_total = |c: usize| {
             if domains.is_active(c) {
-                pullbacks[c].fixed_mean / domains.length(c)
+                pullbacks[c][0].fixed_mean / domains.length(c)
             } else {
                 0.0
             }
@@ -349,7 +347,7 @@ impl TlsMapping {
                     let right = if c + 1 < cells { per_total(c + 1) } else { 0.0 };
                     let through_totals =
                         shares[0] * left + shares[1] * per_total(c) + shares[2] * right;
-                    let through_fit = dot(&pullbacks[c].rhs, &taylor[c].psi(x[p])) * density[p];
+                    let through_fit = dot(&pullbacks[c][0].rhs, &taylor[c].psi(x[p])) * density[p];
                     *a = (through_fit + through_totals) / mass[p];
                 }
             });
