@@ -5,6 +5,7 @@
 //! cell over contiguous ranges; `id` keeps each particle's original index for output.
 
 pub mod bins;
+pub mod records;
 pub mod tensor;
 
 pub use bins::CellBins;

@@ -146,8 +146,8 @@ impl<const D: usize> TensorParticles<D> {
         }
     }
 
-    /// Every `f64` field, mutably (for permutations).
-    fn fields_mut(&mut self) -> Vec<&mut Vec<f64>> {
+    /// Every `f64` field, mutably (for permutations and [`records`]).
+    pub(crate) fn fields_mut(&mut self) -> Vec<&mut Vec<f64>> {
         let mut fields: Vec<&mut Vec<f64>> = Vec::with_capacity(6 * D + D * D + 10);
         fields.extend(self.x0.iter_mut());
         fields.extend(self.x.iter_mut());

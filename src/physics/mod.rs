@@ -4,6 +4,7 @@
 
 pub mod body;
 pub mod boundary;
+pub mod distributed;
 pub mod mass;
 pub mod material;
 pub mod simulation;

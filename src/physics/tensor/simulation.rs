@@ -17,6 +17,7 @@ use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorBody;
 use crate::mapping::RemedyCounts;
 use crate::particles::TensorParticles;
+use crate::physics::distributed::RankExchange;
 use crate::physics::{HistoryRow, SolverTotals};
 use rayon::prelude::*;
 
@@ -59,6 +60,13 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
     /// constrained consistent mass and the grid momentum (0 on eliminated DOFs). `None`
     /// with a lumped mass, before the first step or for `c >= D`.
     fn velocity_system(&self, c: usize) -> Option<(&CsrMatrix, Vec<f64>)>;
+    /// Make this stepper one rank of a distributed run
+    /// ([`TensorStepper::distribute`]).
+    fn distribute(
+        &mut self,
+        exchange: Box<dyn RankExchange>,
+        particles: &mut TensorParticles<D>,
+    ) -> Result<()>;
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
@@ -117,6 +125,13 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
             .collect();
         Some((matrix, momentum))
     }
+    fn distribute(
+        &mut self,
+        exchange: Box<dyn RankExchange>,
+        particles: &mut TensorParticles<D>,
+    ) -> Result<()> {
+        TensorStepper::distribute(self, exchange, particles)
+    }
 }
 
 /// How the time step is chosen.
@@ -173,6 +188,21 @@ impl<const D: usize> TensorSimulation<D> {
             max_momentum_error: 0.0,
             body_field: std::array::from_fn(|_| Vec::new()),
         }
+    }
+
+    /// Make this simulation one rank of a distributed run over `exchange`'s ranks: keep
+    /// the particles of the rank's slab ([`TensorStepper::distribute`]). Every rank must
+    /// have built the same simulation. A fixed time step only: every rank must take the
+    /// same steps.
+    pub fn distribute(&mut self, exchange: Box<dyn RankExchange>) -> Result<()> {
+        if !matches!(self.stepping, TimeStepping::Fixed(_)) {
+            return Err(crate::error::Error::invalid(
+                "time.dt",
+                "\"auto\"",
+                "a distributed run needs a fixed time step (for now)",
+            ));
+        }
+        self.stepper.distribute(exchange, &mut self.particles)
     }
 
     /// Number of steps of a fixed step, `round(end / dt)`; `None` for automatic steps.

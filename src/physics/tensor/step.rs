@@ -32,6 +32,7 @@ use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::TensorParticles;
+use crate::physics::distributed::{momentum_error_over_ranks, RankContext, RankExchange};
 use rayon::prelude::*;
 
 /// Particles per rayon task in the particle update.
@@ -68,6 +69,8 @@ pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorD
     /// Last-axis cell index of each particle at the last sort (its bin's layer).
     bin_layer: Vec<u32>,
     total_mass: f64,
+    /// This rank's part of a distributed run (`None`: one process).
+    ranks: Option<RankContext>,
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
@@ -93,6 +96,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             order: Vec::new(),
             bin_layer: Vec::new(),
             total_mass: deterministic_sum(particles.len(), |p| particles.mass[p]),
+            ranks: None,
         };
         stepper.sort(particles);
         stepper
@@ -110,6 +114,45 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 .iter()
                 .map(|&c| u32::try_from(c / per_layer).unwrap_or(u32::MAX)),
         );
+    }
+
+    /// Make this stepper one rank of a distributed run: keep only the particles of the
+    /// rank's slab and exchange with the other ranks every step
+    /// ([`crate::physics::distributed`]). Every rank must call this with the same
+    /// particles. The lumped MUSL step of the direct mapping only, for now.
+    pub fn distribute(
+        &mut self,
+        exchange: Box<dyn RankExchange>,
+        particles: &mut TensorParticles<D>,
+    ) -> Result<()> {
+        if self.mass_solve.is_some() {
+            return Err(Error::invalid(
+                "method.mass",
+                "\"consistent\"",
+                "a distributed run has the lumped mass only (for now)",
+            ));
+        }
+        if self.scheme != Scheme::Musl {
+            return Err(Error::invalid(
+                "method.scheme",
+                "\"usl\"",
+                "a distributed run steps with MUSL only (for now)",
+            ));
+        }
+        if self.mapping.name() != "none" {
+            return Err(Error::invalid(
+                "method.reconstruction",
+                format!("\"{}\"", self.mapping.name()),
+                "a distributed run has the direct mapping only (for now)",
+            ));
+        }
+        let context = RankContext::new(&self.basis, exchange)?;
+        context.keep_own(particles);
+        let own_mass = deterministic_sum(particles.len(), |p| particles.mass[p]);
+        self.total_mass = context.sum(&[own_mass])?[0];
+        self.ranks = Some(context);
+        self.sort(particles);
+        Ok(())
     }
 
     /// Solve with the consistent mass (the mapping must assemble it).
@@ -134,7 +177,15 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         // 1. Mass and force.
         self.mapping
             .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields);
-        let grid_mass = fields.mass.iter().sum::<f64>();
+        let grid_mass = match &self.ranks {
+            None => fields.mass.iter().sum::<f64>(),
+            Some(ranks) => {
+                ranks.add_shared(&mut fields.mass, 1)?;
+                ranks.add_shared(fields.force.as_flattened_mut(), D)?;
+                let owned = fields.mass[ranks.owned_nodes()].iter().sum::<f64>();
+                ranks.sum(&[owned])?[0]
+            }
+        };
         let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
         if !mass_error.is_finite() {
             return Err(Error::NonFinite {
@@ -179,6 +230,9 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                     dt,
                     fields,
                 ));
+                if let Some(ranks) = &self.ranks {
+                    ranks.add_shared(fields.momentum.as_flattened_mut(), D)?;
+                }
                 self.timings.velocity_and_momentum_seconds += clock.lap();
                 match &mut self.mass_solve {
                     Some(solve) if consistent_velocity => solve.velocities(fields)?,
@@ -200,7 +254,12 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         self.constraints.apply(&mut fields.velocity);
         solve_seconds += clock.lap();
         if let Some([mx, my, mz, scale]) = musl_momentum {
-            momentum_error = momentum_error_of(&fields.momentum, [mx, my, mz], scale);
+            momentum_error = match &self.ranks {
+                None => momentum_error_of(&fields.momentum, [mx, my, mz], scale),
+                Some(ranks) => {
+                    momentum_error_over_ranks(ranks, &fields.momentum, [mx, my, mz], scale)?
+                }
+            };
         }
         // 4.-5. Kinematics and stress.
         let usl_acceleration = (self.scheme == Scheme::Usl).then_some(&fields.acceleration[..]);
@@ -226,6 +285,29 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             update.run(source, particles)
         });
         self.mapping.forget_shapes();
+        let mut outcome = outcome;
+        let mut migrated = 0;
+        if let Some(ranks) = &self.ranks {
+            if outcome.failure.is_none() && ranks.any_failed(false)? {
+                return Err(Error::Solver {
+                    solver: "rank exchange".to_string(),
+                    reason: format!("another rank failed at step {step} (t = {time:e} s)"),
+                });
+            }
+            if outcome.failure.is_some() {
+                ranks.any_failed(true)?;
+            } else {
+                let local = [
+                    outcome.energies.0,
+                    outcome.energies.1,
+                    outcome.crossings as f64,
+                ];
+                let total = ranks.sum(&local)?;
+                outcome.energies = (total[0], total[1]);
+                outcome.crossings = total[2] as usize;
+                migrated = ranks.migrate(particles)?;
+            }
+        }
         if let Some((particle, field)) = outcome.failure {
             return Err(match field {
                 "volume" => Error::CollapsedVolume {
@@ -242,11 +324,12 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 field => Error::NonFinite { field, step, time },
             });
         }
-        let sorted = if bins.slack == 0 {
-            outcome.crossings > 0
-        } else {
-            outcome.strays > 0
-        };
+        let sorted = migrated > 0
+            || if bins.slack == 0 {
+                outcome.crossings > 0
+            } else {
+                outcome.strays > 0
+            };
         if sorted {
             self.sort(particles);
         }
@@ -291,7 +374,13 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             };
             [0.5 * p.mass[k] * speed2, stored]
         });
-        (kinetic, stored)
+        match &self.ranks {
+            None => (kinetic, stored),
+            Some(ranks) => match ranks.sum(&[kinetic, stored]) {
+                Ok(total) => (total[0], total[1]),
+                Err(_) => (f64::NAN, f64::NAN),
+            },
+        }
     }
 }
 

@@ -1,0 +1,202 @@
+//! The 2D / 3D lumped step split over ranks (`docs/distributed.md`).
+//!
+//! The grid's last-axis cell layers are cut into slabs ([`SlabDecomposition`]); each rank
+//! steps the particles of its slab with the ordinary [`super::tensor::TensorStepper`] and
+//! a [`RankContext`] that the stepper calls at three points of a step:
+//!
+//! ```text
+//! after the mass and force scatter   m_I, f_I += the neighbours' parts on shared node layers
+//! after the momentum scatter (MUSL)  p_I      += the neighbours' parts on shared node layers
+//! after the particle update          particles that left the slab move to the neighbour
+//! ```
+//!
+//! and it sums the diagnostics (grid mass and momentum over the node layers each rank
+//! owns, particle momentum, energies, crossings, failures) over ranks in rank order. On a
+//! shared node both ranks add the same two partial sums (`a + b = b + a` in floating
+//! point), so every rank sees the same nodal values. The partial sums themselves are
+//! grouped by rank, so results agree with one process to round-off, not bit for bit.
+//!
+//! Each rank keeps the whole grid's node arrays (only its touched layers are ever
+//! non-zero); the lumped mass, the velocity division and the constraints run over all of
+//! them. That is `O(nodes)` memory and work per rank: fine next to the particles at 4–8
+//! per cell for a few ranks, the first thing to restrict for many.
+
+pub mod exchange;
+pub mod slab;
+
+pub use exchange::{LocalRanks, RankExchange, SingleRank};
+pub use slab::SlabDecomposition;
+
+use crate::error::{Error, Result};
+use crate::grid::{Basis, TensorBasis};
+use crate::particles::TensorParticles;
+use exchange::exchange_error;
+use std::ops::Range;
+
+/// One rank's part in a distributed step: its exchange, the decomposition, and the sizes
+/// that turn node and cell layers into flat index ranges.
+pub struct RankContext {
+    exchange: Box<dyn RankExchange>,
+    slabs: SlabDecomposition,
+    /// Nodes per last-axis node layer (the product of the other axes' DOFs).
+    nodes_per_layer: usize,
+    /// Cells per last-axis cell layer.
+    cells_per_layer: usize,
+}
+
+impl RankContext {
+    /// The context of `exchange`'s rank for a run on `basis`; refuses a decomposition of
+    /// the grid into `exchange.ranks()` slabs that [`SlabDecomposition::new`] refuses.
+    pub fn new<const D: usize, B: Basis>(
+        basis: &TensorBasis<D, B>,
+        exchange: Box<dyn RankExchange>,
+    ) -> Result<Self> {
+        let slabs = SlabDecomposition::new(basis, exchange.ranks())?;
+        let dofs = basis.dofs();
+        Ok(Self {
+            exchange,
+            slabs,
+            nodes_per_layer: dofs[..D - 1].iter().product(),
+            cells_per_layer: basis.grid.cells_per_layer(),
+        })
+    }
+
+    /// This rank.
+    pub fn rank(&self) -> usize {
+        self.exchange.rank()
+    }
+
+    /// The decomposition.
+    pub fn slabs(&self) -> &SlabDecomposition {
+        &self.slabs
+    }
+
+    /// Whether lexicographic cell `cell` lies in this rank's slab.
+    pub fn owns_cell(&self, cell: usize) -> bool {
+        self.slabs
+            .cell_layers(self.rank())
+            .contains(&(cell / self.cells_per_layer))
+    }
+
+    /// The flat node indices of this rank's owned node layers.
+    pub fn owned_nodes(&self) -> Range<usize> {
+        self.node_range(self.slabs.owned_node_layers(self.rank()))
+    }
+
+    fn node_range(&self, layers: Range<usize>) -> Range<usize> {
+        layers.start * self.nodes_per_layer..layers.end * self.nodes_per_layer
+    }
+
+    /// Add the neighbours' values on the shared node layers of `field` (`width` values per
+    /// node, nodes in lexicographic order).
+    pub fn add_shared(&self, field: &mut [f64], width: usize) -> Result<()> {
+        let r = self.rank();
+        let scaled = |nodes: Range<usize>| nodes.start * width..nodes.end * width;
+        let lower = match r {
+            0 => 0..0,
+            _ => scaled(self.node_range(self.slabs.shared_with_upper(r - 1))),
+        };
+        let upper = scaled(self.node_range(self.slabs.shared_with_upper(r)));
+        let (from_lower, from_upper) = self
+            .exchange
+            .swap_with_neighbours(&field[lower.clone()], &field[upper.clone()])?;
+        for (range, received) in [(lower, from_lower), (upper, from_upper)] {
+            if received.len() != range.len() {
+                return Err(exchange_error(
+                    "a neighbour sent a shared layer of another size",
+                ));
+            }
+            for (value, other) in field[range].iter_mut().zip(&received) {
+                *value += other;
+            }
+        }
+        Ok(())
+    }
+
+    /// `sum_r local_r` over ranks, folded in rank order.
+    pub fn sum(&self, local: &[f64]) -> Result<Vec<f64>> {
+        self.exchange.sum_over_ranks(local)
+    }
+
+    /// Whether any rank had `failed` (every rank must call this in the same step).
+    pub fn any_failed(&self, failed: bool) -> Result<bool> {
+        Ok(self.sum(&[f64::from(u8::from(failed))])?[0] > 0.0)
+    }
+
+    /// Keep only the particles of this rank's slab (at the start of a run, when every
+    /// rank built all of them).
+    pub fn keep_own<const D: usize>(&self, particles: &mut TensorParticles<D>) {
+        let mut elsewhere = vec![Vec::new()];
+        let cells = particles.cell.clone();
+        particles.take_records(|k| (!self.owns_cell(cells[k])).then_some(0), &mut elsewhere);
+    }
+
+    /// Send the particles that left this rank's slab to the neighbour slab they entered
+    /// and append the neighbours' arrivals; returns how many left and arrived.
+    ///
+    /// A particle that crossed a whole slab in one step is an error (the time step is
+    /// far above the stability limit, or the slab is thinner than a cell of travel).
+    pub fn migrate<const D: usize>(&self, particles: &mut TensorParticles<D>) -> Result<usize> {
+        let r = self.rank();
+        let own = self.slabs.cell_layers(r);
+        let layers: Vec<usize> = particles
+            .cell
+            .iter()
+            .map(|&c| c / self.cells_per_layer)
+            .collect();
+        let mut jumped = None;
+        let destination = |k: usize| {
+            let layer = layers[k];
+            if own.contains(&layer) {
+                return None;
+            }
+            let owner = self.slabs.owner_of_layer(layer);
+            Some(usize::from(owner > r))
+        };
+        for (k, &layer) in layers.iter().enumerate() {
+            if !own.contains(&layer) && self.slabs.owner_of_layer(layer).abs_diff(r) > 1 {
+                jumped = jumped.or(Some(particles.id[k]));
+            }
+        }
+        let mut outboxes = vec![Vec::new(), Vec::new()];
+        particles.take_records(destination, &mut outboxes);
+        let left = (outboxes[0].len() + outboxes[1].len()) / TensorParticles::<D>::record_len();
+        let jumped_anywhere = self.any_failed(jumped.is_some())?;
+        if jumped_anywhere {
+            return Err(match jumped {
+                Some(id) => Error::Solver {
+                    solver: "rank exchange".to_string(),
+                    reason: format!("particle {id} crossed a whole slab in one step"),
+                },
+                None => exchange_error("a particle of another rank crossed a whole slab"),
+            });
+        }
+        let (from_lower, from_upper) = self
+            .exchange
+            .swap_with_neighbours(&outboxes[0], &outboxes[1])?;
+        let before = particles.len();
+        particles.append_records(&from_lower)?;
+        particles.append_records(&from_upper)?;
+        Ok(left + particles.len() - before)
+    }
+}
+
+/// `max_c |grid_c - particle_c| / scale` of sums taken over all ranks: `local` is
+/// `[grid momentum (D, over owned nodes), particle momentum (D), sum m |v|]`.
+pub fn momentum_error_over_ranks<const D: usize>(
+    context: &RankContext,
+    grid: &[[f64; D]],
+    particle: [f64; 3],
+    scale: f64,
+) -> Result<Option<f64>> {
+    let mut local = vec![0.0; 2 * D + 1];
+    for c in 0..D {
+        local[c] = grid[context.owned_nodes()].iter().map(|g| g[c]).sum();
+        local[D + c] = particle[c];
+    }
+    local[2 * D] = scale;
+    let total = context.sum(&local)?;
+    let scale = total[2 * D];
+    let error = (0..D).fold(0.0f64, |e, c| e.max((total[c] - total[D + c]).abs()));
+    Ok((scale > 0.0).then_some(error / scale))
+}
