@@ -205,6 +205,7 @@ fn two_phase_outputs_carry_the_liquid_columns() {
         force: false,
         stop: None,
         warnings: Vec::new(),
+        ranks: None,
     };
     let summary = tlsmpm::app::run(&s, "consolidation", &options, &mut |_, _| {}).expect("run");
     let errors = summary.errors.expect("errors against Terzaghi");

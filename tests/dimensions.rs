@@ -169,6 +169,7 @@ fn a_run_writes_vtu_snapshots_that_read_back_and_a_pvd_listing_them() {
         force: false,
         stop: None,
         warnings: Vec::new(),
+        ranks: None,
     };
     let summary = tlsmpm::app::run(&s, "vtk", &options, &mut |_, _| {}).expect("run");
     let pvd = std::fs::read_to_string(dir.path().join("particles.pvd")).expect("pvd");

@@ -16,6 +16,7 @@ fn run_writes_the_stable_files_and_evenly_spread_snapshots() {
         force: false,
         stop: None,
         warnings: Vec::new(),
+        ranks: None,
     };
     let mut calls = 0;
     let summary = app::run(&s, "bar", &options, &mut |_, _| calls += 1).expect("run");

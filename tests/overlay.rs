@@ -25,6 +25,7 @@ fn run(prefix: &str, overrides: &[&str]) -> tempfile::TempDir {
         force: false,
         stop: None,
         warnings: Vec::new(),
+        ranks: None,
     };
     app::run(&s, "bar", &options, &mut |_, _| {}).expect("run");
     dir

@@ -17,6 +17,7 @@ use crate::output::plot::{profile_plot, semilogy_plot, Axes, Series, Style, Valu
 use crate::output::summary::{Conservation, Errors, SolverSummary};
 use crate::output::Summary;
 use crate::particles::Particles;
+use crate::physics::distributed::RankExchange;
 use crate::physics::Simulation;
 use crate::problems::{Field, PlotAxis, Problem, ProblemBody};
 use rayon::prelude::*;
@@ -39,6 +40,20 @@ pub struct RunOptions {
     /// Warnings found by the caller (a study's replaced keys), reported in the summary
     /// with the run's own.
     pub warnings: Vec<String>,
+    /// The ranks of a distributed 2D / 3D run (`None`: one process).
+    pub ranks: Option<Ranks>,
+}
+
+/// How a distributed run reaches the other ranks: a new [`RankExchange`] of this
+/// process's rank on each call (`docs/distributed.md`).
+#[derive(Clone)]
+pub struct Ranks(pub std::sync::Arc<dyn Fn() -> Box<dyn RankExchange> + Send + Sync>);
+
+impl std::fmt::Debug for Ranks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let exchange = (self.0)();
+        write!(f, "Ranks(rank {} of {})", exchange.rank(), exchange.ranks())
+    }
 }
 
 impl RunOptions {
@@ -61,6 +76,13 @@ pub fn run(
 ) -> Result<Summary> {
     if scenario.problem.dim != 1 {
         return crate::app::tensor_run::run_tensor(scenario, name, options, progress);
+    }
+    if options.ranks.is_some() {
+        return Err(Error::invalid(
+            "problem.dim",
+            1,
+            "a distributed run (more than one MPI rank) needs problem.dim = 2 or 3",
+        ));
     }
     let pool = thread_pool(options.threads)?;
     let (problem, mut simulation) = build_simulation(scenario, options.force)?;

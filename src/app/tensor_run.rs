@@ -27,6 +27,7 @@ use crate::output::vtu::{write_pvd, write_vtu, PointArray};
 use crate::output::Summary;
 use crate::particles::tensor::{stress_index, STRESS_COMPONENTS};
 use crate::particles::TensorParticles;
+use crate::physics::distributed::{gather_particles, RankExchange};
 use crate::physics::tensor::stability::tensor_critical_time_step;
 use crate::physics::tensor::{
     lame, LinearElasticTensor, NeoHookeanTensor, NodeConstraints, TensorMassSolve, TensorMaterial,
@@ -34,6 +35,7 @@ use crate::physics::tensor::{
 };
 use crate::problems::tensor::TensorProblem;
 use crate::problems::Field;
+use std::borrow::Cow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -300,6 +302,22 @@ fn run_dim<const D: usize>(
     let pool = crate::app::run::thread_pool(options.threads)?;
     let (problem, mut simulation) =
         pool.install(|| build_tensor_simulation::<D>(scenario, options.force))?;
+    // A distributed run: this rank's slab of particles; `gather` brings every rank's
+    // particles to rank 0, which writes the outputs.
+    let gather = match &options.ranks {
+        Some(ranks) => {
+            if D == 1 {
+                return Err(Error::invalid(
+                    "problem.dim",
+                    1,
+                    "a distributed run needs problem.dim = 2 or 3",
+                ));
+            }
+            simulation.distribute((ranks.0)())?;
+            Some((ranks.0)())
+        }
+        None => None,
+    };
     let out = &options.out_dir;
     std::fs::create_dir_all(out).map_err(|e| Error::write(out, e))?;
     let snapshots = scenario.output.snapshots;
@@ -316,7 +334,9 @@ fn run_dim<const D: usize>(
     };
     if vtk {
         let file = "particles_0000.vtu".to_string();
-        write_vtu_of(&out.join(&file), &simulation.particles)?;
+        if let Some(p) = writable(&gather, &simulation.particles)? {
+            write_vtu_of(&out.join(&file), &p)?;
+        }
         vtk_series.push((0.0, file));
     }
     let clock = Instant::now();
@@ -330,15 +350,18 @@ fn run_dim<const D: usize>(
             {
                 let k = next_snapshot;
                 next_snapshot += 1;
+                let Some(p) = writable(&gather, &sim.particles)? else {
+                    continue;
+                };
                 let result = if vtk {
                     let file = format!("particles_{k:04}.vtu");
                     vtk_series.push((sim.time, file.clone()));
-                    write_vtu_of(&out.join(file), &sim.particles)
+                    write_vtu_of(&out.join(file), &p)
                 } else {
-                    let columns = exact_columns(&problem, sim, scenario);
+                    let columns = exact_columns_of(&problem, &p, sim, scenario);
                     write_tensor_particles(
                         &out.join(format!("snapshot_{k:04}.csv")),
-                        &sim.particles,
+                        &p,
                         &as_refs(&columns),
                     )
                 };
@@ -354,7 +377,18 @@ fn run_dim<const D: usize>(
     if let Some(e) = snapshot_error {
         return Err(e);
     }
-    if vtk {
+    // Rank 0 of a distributed run writes with every rank's particles.
+    let write_files = match &gather {
+        None => true,
+        Some(exchange) => match gather_particles(exchange.as_ref(), &simulation.particles)? {
+            Some(all) => {
+                simulation.particles = all;
+                true
+            }
+            None => false,
+        },
+    };
+    if vtk && write_files {
         let final_file = format!("particles_{:04}.vtu", vtk_series.len());
         if vtk_series.last().is_none_or(|(t, _)| *t < simulation.time) {
             write_vtu_of(&out.join(&final_file), &simulation.particles)?;
@@ -373,9 +407,22 @@ fn run_dim<const D: usize>(
             wall_seconds,
             outcome.as_ref().err(),
             &options.warnings,
+            write_files,
         )
     })?;
     outcome.map(|()| summary)
+}
+
+/// The particles to write: all of them, and on rank 0 only for a distributed run (whose
+/// exchange is `gather`).
+fn writable<'a, const D: usize>(
+    gather: &Option<Box<dyn RankExchange>>,
+    p: &'a TensorParticles<D>,
+) -> Result<Option<Cow<'a, TensorParticles<D>>>> {
+    match gather {
+        None => Ok(Some(Cow::Borrowed(p))),
+        Some(exchange) => Ok(gather_particles(exchange.as_ref(), p)?.map(Cow::Owned)),
+    }
 }
 
 /// The exact values of every known field at every particle (storage order), at the
@@ -385,8 +432,17 @@ pub fn exact_columns<const D: usize>(
     simulation: &TensorSimulation<D>,
     scenario: &Scenario,
 ) -> Vec<(Field, Vec<Vec<f64>>)> {
+    exact_columns_of(problem, &simulation.particles, simulation, scenario)
+}
+
+/// [`exact_columns`] at the particles `p` (all ranks' particles in a distributed run).
+fn exact_columns_of<const D: usize>(
+    problem: &TensorProblem<D>,
+    p: &TensorParticles<D>,
+    simulation: &TensorSimulation<D>,
+    scenario: &Scenario,
+) -> Vec<(Field, Vec<Vec<f64>>)> {
     use rayon::prelude::*;
-    let p = &simulation.particles;
     problem
         .exact_fields()
         .iter()
@@ -487,6 +543,7 @@ fn write_outputs<const D: usize>(
     wall_seconds: f64,
     failure: Option<&Error>,
     extra_warnings: &[String],
+    write_files: bool,
 ) -> Result<Summary> {
     let p = &simulation.particles;
     let columns = exact_columns(problem, simulation, scenario);
@@ -547,6 +604,9 @@ fn write_outputs<const D: usize>(
         warnings,
         config: scenario.clone(),
     };
+    if !write_files {
+        return Ok(summary);
+    }
     write_tensor_particles(&out.join("particles.csv"), p, &as_refs(&columns))?;
     write_history(&out.join("history.csv"), &simulation.history)?;
     if scenario.output.plots && D >= 2 {

@@ -261,6 +261,7 @@ impl Common {
             force: self.force,
             stop: Some(&interrupt::STOP),
             warnings: Vec::new(),
+            ranks: None,
         }
     }
 }
@@ -376,9 +377,40 @@ impl Progress {
     }
 }
 
+/// This process's rank and the number of ranks (`(0, 1)` without MPI).
+static WORLD: std::sync::OnceLock<(usize, usize)> = std::sync::OnceLock::new();
+
+fn world() -> (usize, usize) {
+    WORLD.get().copied().unwrap_or((0, 1))
+}
+
 fn main() -> ExitCode {
     interrupt::install();
     let cli = Cli::parse();
+    // Under `mpirun` (built with `--features mpi`) every rank runs this binary; MPI is
+    // finalised when `_universe` drops at the end of `main`.
+    #[cfg(feature = "mpi")]
+    let _universe = {
+        use mpi::traits::Communicator;
+        let universe = mpi::initialize();
+        if let Some(universe) = &universe {
+            let world = universe.world();
+            let rank = usize::try_from(world.rank()).unwrap_or(0);
+            let size = usize::try_from(world.size()).unwrap_or(1);
+            let _ = WORLD.set((rank, size));
+        }
+        universe
+    };
+    run_main(cli)
+}
+
+fn run_main(cli: Cli) -> ExitCode {
+    let (rank, ranks) = world();
+    let prefix = if ranks > 1 {
+        format!("rank {rank}: ")
+    } else {
+        String::new()
+    };
     match execute(cli) {
         Ok(()) if interrupt::requested() => {
             // The signal came after the last step: the output is complete.
@@ -394,9 +426,9 @@ fn main() -> ExitCode {
             // went) comes first.
             match err.downcast_ref::<tlsmpm::Error>() {
                 Some(inner) if err.chain().count() > 1 => {
-                    eprintln!("error: {inner}; {err}")
+                    eprintln!("{prefix}error: {inner}; {err}")
                 }
-                _ => eprintln!("error: {err}"),
+                _ => eprintln!("{prefix}error: {err}"),
             }
             ExitCode::from(code as u8)
         }
@@ -581,19 +613,35 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Run { common } => {
             let (scenario, name) = common.load()?;
-            let options = common.options(&name);
-            let mut progress = Progress::new(common.quiet);
-            let result = staged_run(&options, common.force, |options| {
+            let mut options = common.options(&name);
+            // A distributed run: rank 0 writes the outputs into `--out`; the other ranks
+            // stage theirs (nothing but the directory) privately and say nothing.
+            let (rank, ranks) = world();
+            let root = rank == 0;
+            if ranks > 1 {
+                options.ranks = distributed_ranks();
+                if !root {
+                    options.out_dir = std::env::temp_dir()
+                        .join(format!("tlsmpm-rank{rank}-{}", std::process::id()));
+                }
+            }
+            let quiet = common.quiet || !root;
+            let mut progress = Progress::new(quiet);
+            let result = staged_run(&options, common.force || !root, |options| {
                 app::run(&scenario, &name, options, &mut |step, total| {
                     progress.update("run", step, total)
                 })
             });
             progress.finish();
             let (summary, dir) = result?;
+            if !root {
+                let _ = std::fs::remove_dir_all(&dir);
+                return Ok(());
+            }
             for warning in &summary.warnings {
                 eprintln!("warning: {warning}");
             }
-            if !common.quiet {
+            if !quiet {
                 print_summary(&summary, &dir);
             }
             Ok(())
@@ -627,6 +675,20 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The ranks of `MPI_COMM_WORLD` for a distributed run.
+#[cfg(feature = "mpi")]
+fn distributed_ranks() -> Option<app::run::Ranks> {
+    Some(app::run::Ranks(std::sync::Arc::new(|| {
+        Box::new(tlsmpm::physics::distributed::MpiRanks::world())
+    })))
+}
+
+/// Without the `mpi` feature there is one rank.
+#[cfg(not(feature = "mpi"))]
+fn distributed_ranks() -> Option<app::run::Ranks> {
+    None
 }
 
 fn print_summary(summary: &tlsmpm::output::Summary, out_dir: &Path) {

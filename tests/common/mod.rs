@@ -24,6 +24,7 @@ fn options(dir: &tempfile::TempDir, threads: Option<usize>) -> RunOptions {
         force: false,
         stop: None,
         warnings: Vec::new(),
+        ranks: None,
     }
 }
 

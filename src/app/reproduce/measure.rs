@@ -111,6 +111,7 @@ impl<'a> Lab<'a> {
             force: false,
             stop: self.stop,
             warnings: Vec::new(),
+            ranks: None,
         }
     }
 

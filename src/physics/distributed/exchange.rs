@@ -30,6 +30,8 @@ pub trait RankExchange: Send + Sync {
     ) -> Result<(Vec<f64>, Vec<f64>)>;
     /// Every rank's `local`, in rank order.
     fn all_gather(&self, local: &[f64]) -> Result<Vec<Vec<f64>>>;
+    /// Every rank's `local` concatenated in rank order on rank 0 (`None` on the others).
+    fn gather_to_root(&self, local: &[f64]) -> Result<Option<Vec<f64>>>;
 
     /// `sum_r local_r` component by component, folded in rank order (the same bits on
     /// every rank).
@@ -143,6 +145,12 @@ impl RankExchange for LocalRanks {
             (0..ranks).map(|r| message(boxes, r, 0)).collect()
         })
     }
+
+    fn gather_to_root(&self, local: &[f64]) -> Result<Option<Vec<f64>>> {
+        // `all_gather` of this backend takes vectors of any length.
+        let all = self.all_gather(local)?;
+        Ok((self.rank == 0).then(|| all.concat()))
+    }
 }
 
 /// The exchange of a run on one rank: nothing to send, sums of one term.
@@ -161,6 +169,9 @@ impl RankExchange for SingleRank {
     }
     fn all_gather(&self, local: &[f64]) -> Result<Vec<Vec<f64>>> {
         Ok(vec![local.to_vec()])
+    }
+    fn gather_to_root(&self, local: &[f64]) -> Result<Option<Vec<f64>>> {
+        Ok(Some(local.to_vec()))
     }
 }
 

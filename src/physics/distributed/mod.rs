@@ -22,9 +22,13 @@
 //! per cell for a few ranks, the first thing to restrict for many.
 
 pub mod exchange;
+#[cfg(feature = "mpi")]
+pub mod mpi_ranks;
 pub mod slab;
 
 pub use exchange::{LocalRanks, RankExchange, SingleRank};
+#[cfg(feature = "mpi")]
+pub use mpi_ranks::MpiRanks;
 pub use slab::SlabDecomposition;
 
 use crate::error::{Error, Result};
@@ -32,6 +36,8 @@ use crate::grid::{Basis, TensorBasis};
 use crate::particles::TensorParticles;
 use exchange::exchange_error;
 use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
 
 /// One rank's part in a distributed step: its exchange, the decomposition, and the sizes
 /// that turn node and cell layers into flat index ranges.
@@ -42,6 +48,8 @@ pub struct RankContext {
     nodes_per_layer: usize,
     /// Cells per last-axis cell layer.
     cells_per_layer: usize,
+    /// Seconds spent in the exchange so far (the bits of an `f64`).
+    exchange_seconds: AtomicU64,
 }
 
 impl RankContext {
@@ -58,7 +66,23 @@ impl RankContext {
             slabs,
             nodes_per_layer: dofs[..D - 1].iter().product(),
             cells_per_layer: basis.grid.cells_per_layer(),
+            exchange_seconds: AtomicU64::new(0.0f64.to_bits()),
         })
+    }
+
+    /// Seconds spent exchanging with the other ranks so far (waiting for them included).
+    pub fn exchange_seconds(&self) -> f64 {
+        f64::from_bits(self.exchange_seconds.load(Ordering::Relaxed))
+    }
+
+    /// Run `exchange`, adding its wall time to [`Self::exchange_seconds`].
+    fn timed<T>(&self, exchange: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let result = exchange();
+        let total = self.exchange_seconds() + start.elapsed().as_secs_f64();
+        self.exchange_seconds
+            .store(total.to_bits(), Ordering::Relaxed);
+        result
     }
 
     /// This rank.
@@ -97,9 +121,10 @@ impl RankContext {
             _ => scaled(self.node_range(self.slabs.shared_with_upper(r - 1))),
         };
         let upper = scaled(self.node_range(self.slabs.shared_with_upper(r)));
-        let (from_lower, from_upper) = self
-            .exchange
-            .swap_with_neighbours(&field[lower.clone()], &field[upper.clone()])?;
+        let (from_lower, from_upper) = self.timed(|| {
+            self.exchange
+                .swap_with_neighbours(&field[lower.clone()], &field[upper.clone()])
+        })?;
         for (range, received) in [(lower, from_lower), (upper, from_upper)] {
             if received.len() != range.len() {
                 return Err(exchange_error(
@@ -115,7 +140,7 @@ impl RankContext {
 
     /// `sum_r local_r` over ranks, folded in rank order.
     pub fn sum(&self, local: &[f64]) -> Result<Vec<f64>> {
-        self.exchange.sum_over_ranks(local)
+        self.timed(|| self.exchange.sum_over_ranks(local))
     }
 
     /// Whether any rank had `failed` (every rank must call this in the same step).
@@ -171,9 +196,10 @@ impl RankContext {
                 None => exchange_error("a particle of another rank crossed a whole slab"),
             });
         }
-        let (from_lower, from_upper) = self
-            .exchange
-            .swap_with_neighbours(&outboxes[0], &outboxes[1])?;
+        let (from_lower, from_upper) = self.timed(|| {
+            self.exchange
+                .swap_with_neighbours(&outboxes[0], &outboxes[1])
+        })?;
         let before = particles.len();
         particles.append_records(&from_lower)?;
         particles.append_records(&from_upper)?;
@@ -199,4 +225,23 @@ pub fn momentum_error_over_ranks<const D: usize>(
     let scale = total[2 * D];
     let error = (0..D).fold(0.0f64, |e, c| e.max((total[c] - total[D + c]).abs()));
     Ok((scale > 0.0).then_some(error / scale))
+}
+
+/// Every rank's particles on rank 0, in rank order (`None` on the other ranks): for the
+/// outputs of a distributed run, which rank 0 writes.
+pub fn gather_particles<const D: usize>(
+    exchange: &dyn RankExchange,
+    particles: &TensorParticles<D>,
+) -> Result<Option<TensorParticles<D>>> {
+    let mut mine = particles.clone();
+    let mut records = vec![Vec::new()];
+    mine.take_records(|_| Some(0), &mut records);
+    match exchange.gather_to_root(&records[0])? {
+        Some(all) => {
+            let mut gathered = TensorParticles::default();
+            gathered.append_records(&all)?;
+            Ok(Some(gathered))
+        }
+        None => Ok(None),
+    }
 }

@@ -351,6 +351,10 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         StepTimings {
             mass_and_force_seconds: (self.timings.mass_and_force_seconds - assembly).max(0.0),
             assembly_seconds: assembly,
+            exchange_seconds: self
+                .ranks
+                .as_ref()
+                .map_or(0.0, RankContext::exchange_seconds),
             ..self.timings
         }
     }

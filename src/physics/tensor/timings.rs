@@ -26,6 +26,14 @@ pub struct StepTimings {
     pub velocity_and_momentum_seconds: f64,
     /// Kinematics, stress update, new cells and the counting sort.
     pub particle_update_seconds: f64,
+    /// Seconds a rank of a distributed run spent exchanging with the others (part of the
+    /// phases above; absent from `summary.json` for one process).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub exchange_seconds: f64,
+}
+
+fn is_zero(seconds: &f64) -> bool {
+    *seconds == 0.0
 }
 
 impl StepTimings {
@@ -80,6 +88,7 @@ mod tests {
             mass_solve_seconds: 1.5,
             velocity_and_momentum_seconds: 0.5,
             particle_update_seconds: 1.5,
+            exchange_seconds: 0.0,
         };
         assert_eq!(t.total_seconds(), 5.0);
         assert!((t.mass_solve_share() - 0.3).abs() < 1e-15);
