@@ -955,3 +955,43 @@ fn a_study_names_the_grid_cells_its_cell_counts_replace() {
     assert_eq!(o.code, 0, "stderr: {}", o.stderr);
     assert!(!o.stderr.contains("warning"), "{}", o.stderr);
 }
+
+/// A build without the `mpi` feature started by `mpirun` on several ranks refuses to run
+/// (each copy would run the whole problem into the same directory).
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn a_build_without_mpi_refuses_to_run_as_one_of_several_mpi_ranks() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("run");
+    let output = Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
+        .args(["run", "axis_aligned_mms", "--quiet", "--out"])
+        .arg(&out)
+        .env("OMPI_COMM_WORLD_SIZE", "2")
+        .output()
+        .expect("start tlsmpm");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--features mpi"), "{stderr}");
+    assert!(!out.exists());
+    // One rank (or no launcher) runs as usual.
+    let output = Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
+        .args([
+            "run",
+            "axis_aligned_mms",
+            "--quiet",
+            "--set",
+            "grid.cells=4",
+            "--set",
+        ])
+        .arg("time.end=1e-4")
+        .arg("--out")
+        .arg(&out)
+        .env("OMPI_COMM_WORLD_SIZE", "1")
+        .output()
+        .expect("start tlsmpm");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}

@@ -25,28 +25,46 @@ fn state_of<const D: usize>(sim: &TensorSimulation<D>, into: &mut State) {
     }
 }
 
-/// One run of the built-in `name` with `sets` on `ranks` ranks (one thread each):
-/// the particles by id, each rank's history, how many particles ended on another rank
-/// than they started on.
+/// One run of the built-in `name` with `sets` on `ranks` ranks (one thread each), every
+/// particle checked to be on exactly one rank after every step: the particles by id, each
+/// rank's history, how many particles ended on another rank than they started on.
 fn run_ranks<const D: usize>(
     name: &str,
     sets: &[&str],
     ranks: usize,
 ) -> (State, Vec<Vec<HistoryRow>>, usize) {
     let s = scenario(name, sets);
+    // A second group of the same ranks checks after every step that each particle is on
+    // exactly one rank.
+    let checks = LocalRanks::group(ranks);
     let results: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = LocalRanks::group(ranks)
             .into_iter()
-            .map(|exchange| {
+            .zip(checks)
+            .map(|(exchange, check)| {
                 let s = &s;
                 scope.spawn(move || {
-                    let rank = exchange.rank();
                     let (problem, mut sim) = build_tensor_simulation::<D>(s, false).expect("build");
                     let n = sim.particles.len();
                     sim.distribute(Box::new(exchange)).expect("distribute");
                     let started: Vec<usize> = sim.particles.id.clone();
+                    let mut every_step = |sim: &TensorSimulation<D>| {
+                        let ids: Vec<f64> = sim.particles.id.iter().map(|&i| i as f64).collect();
+                        let mut seen = vec![0u8; n];
+                        for part in check.all_gather(&ids)? {
+                            for id in part {
+                                seen[id as usize] += 1;
+                            }
+                        }
+                        assert!(
+                            seen.iter().all(|&c| c == 1),
+                            "step {}: a particle is lost or on two ranks",
+                            sim.steps_done
+                        );
+                        Ok(true)
+                    };
                     pool(1)
-                        .install(|| sim.run(&problem, &mut |_| Ok(true)))
+                        .install(|| sim.run(&problem, &mut every_step))
                         .expect("run");
                     let moved = sim
                         .particles
@@ -54,7 +72,6 @@ fn run_ranks<const D: usize>(
                         .iter()
                         .filter(|id| !started.contains(id))
                         .count();
-                    let _ = rank;
                     (n, sim, moved)
                 })
             })

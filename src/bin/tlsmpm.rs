@@ -405,6 +405,16 @@ fn main() -> ExitCode {
 }
 
 fn run_main(cli: Cli) -> ExitCode {
+    // Under `mpirun` a build without MPI would run the whole problem once per rank, all
+    // writing the same directory.
+    #[cfg(not(feature = "mpi"))]
+    if let Some(size) = launched_ranks().filter(|&n| n > 1) {
+        eprintln!(
+            "error: started as one of {size} MPI ranks, but this tlsmpm was built without \
+             MPI: build it with `cargo build --release --features mpi` (docs/distributed.md)"
+        );
+        return ExitCode::from(2);
+    }
     let (rank, ranks) = world();
     let prefix = if ranks > 1 {
         format!("rank {rank}: ")
@@ -675,6 +685,15 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The number of ranks an MPI launcher (Open MPI, MPICH's PMI) says this process is one
+/// of, from its environment.
+#[cfg(not(feature = "mpi"))]
+fn launched_ranks() -> Option<usize> {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"]
+        .iter()
+        .find_map(|key| std::env::var(key).ok()?.parse().ok())
 }
 
 /// The ranks of `MPI_COMM_WORLD` for a distributed run.
