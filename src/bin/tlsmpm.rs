@@ -434,12 +434,15 @@ fn run_main(cli: Cli) -> ExitCode {
                 .map_or(1, tlsmpm::Error::exit_code);
             // Library messages carry their cause; a context (where the partial output
             // went) comes first.
-            match err.downcast_ref::<tlsmpm::Error>() {
+            let message = match err.downcast_ref::<tlsmpm::Error>() {
                 Some(inner) if err.chain().count() > 1 => {
-                    eprintln!("{prefix}error: {inner}; {err}")
+                    format!("{prefix}error: {inner}; {err}\n")
                 }
-                _ => eprintln!("{prefix}error: {err}"),
-            }
+                _ => format!("{prefix}error: {err}\n"),
+            };
+            // One write per message: under `mpirun` the ranks share the terminal, and
+            // `eprintln!` writes a formatted line in pieces that other ranks interleave.
+            let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), message.as_bytes());
             ExitCode::from(code as u8)
         }
     }
