@@ -69,6 +69,9 @@ pub enum Error {
     /// A linear solver broke down or did not converge.
     #[error("linear solver `{solver}` failed: {reason}")]
     Solver { solver: String, reason: String },
+    /// The exchange between the ranks of a distributed run failed, or another rank did.
+    #[error("distributed run: {reason}")]
+    Distributed { reason: String },
     /// A result file could not be written.
     #[error("cannot write {path}: {reason}")]
     WriteOutput { path: PathBuf, reason: String },

@@ -51,8 +51,7 @@ pub struct Ranks(pub std::sync::Arc<dyn Fn() -> Box<dyn RankExchange> + Send + S
 
 impl std::fmt::Debug for Ranks {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let exchange = (self.0)();
-        write!(f, "Ranks(rank {} of {})", exchange.rank(), exchange.ranks())
+        f.write_str("Ranks(..)")
     }
 }
 

@@ -23,6 +23,17 @@ impl<const D: usize> TensorParticles<D> {
         2 + 4 * D + 6 + D * D + 3
     }
 
+    /// Every particle as a record, in order (the particles stay).
+    pub fn records(&self) -> Vec<f64> {
+        let fields = self.fields();
+        let mut out = Vec::with_capacity(self.len() * Self::record_len());
+        for k in 0..self.len() {
+            out.extend_from_slice(&[self.id[k] as f64, self.cell[k] as f64]);
+            out.extend(fields.iter().map(|f| f[k]));
+        }
+        out
+    }
+
     /// Move every particle `k` with `destination(k) = Some(d)` into `outboxes[d]` as a
     /// record; the others stay, in their order.
     pub fn take_records(
@@ -117,6 +128,12 @@ mod tests {
         assert_eq!(p.mass, vec![2.0, 6.0]);
         assert_eq!(boxes[0].len(), TensorParticles::<2>::record_len());
         assert_eq!(boxes[1].len(), TensorParticles::<2>::record_len());
+        let whole = original.records();
+        assert_eq!(whole.len(), 4 * TensorParticles::<2>::record_len());
+        assert_eq!(
+            &whole[TensorParticles::<2>::record_len()..][..boxes[0].len()],
+            &boxes[0][..]
+        );
         p.append_records(&boxes[1]).unwrap();
         p.append_records(&boxes[0]).unwrap();
         assert_eq!(p.id, vec![0, 2, 3, 1]);

@@ -147,6 +147,21 @@ impl<const D: usize> TensorParticles<D> {
     }
 
     /// Every `f64` field, mutably (for permutations and [`records`]).
+    /// The `f64` fields in the order of [`Self::fields_mut`], read only.
+    pub(crate) fn fields(&self) -> Vec<&Vec<f64>> {
+        let mut fields: Vec<&Vec<f64>> = Vec::with_capacity(6 * D + D * D + 10);
+        fields.extend(self.x0.iter());
+        fields.extend(self.x.iter());
+        fields.extend(self.u.iter());
+        fields.extend(self.v.iter());
+        fields.extend(self.stress.iter());
+        for row in self.deformation_gradient.iter() {
+            fields.extend(row.iter());
+        }
+        fields.extend([&self.volume, &self.volume0, &self.mass]);
+        fields
+    }
+
     pub(crate) fn fields_mut(&mut self) -> Vec<&mut Vec<f64>> {
         let mut fields: Vec<&mut Vec<f64>> = Vec::with_capacity(6 * D + D * D + 10);
         fields.extend(self.x0.iter_mut());

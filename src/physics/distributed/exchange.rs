@@ -51,8 +51,7 @@ pub trait RankExchange: Send + Sync {
 }
 
 pub(crate) fn exchange_error(reason: &str) -> Error {
-    Error::Solver {
-        solver: "rank exchange".to_string(),
+    Error::Distributed {
         reason: reason.to_string(),
     }
 }

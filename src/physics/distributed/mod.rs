@@ -31,12 +31,13 @@ pub use exchange::{LocalRanks, RankExchange, SingleRank};
 pub use mpi_ranks::MpiRanks;
 pub use slab::SlabDecomposition;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::grid::{Basis, TensorBasis};
 use crate::particles::TensorParticles;
 use exchange::exchange_error;
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// One rank's part in a distributed step: its exchange, the decomposition, and the sizes
@@ -50,6 +51,8 @@ pub struct RankContext {
     cells_per_layer: usize,
     /// Seconds spent in the exchange so far (the bits of an `f64`).
     exchange_seconds: AtomicU64,
+    /// Where each particle goes this step ([`Self::plan_migration`]), reused.
+    destinations: Mutex<Vec<Option<usize>>>,
 }
 
 impl RankContext {
@@ -67,6 +70,7 @@ impl RankContext {
             nodes_per_layer: dofs[..D - 1].iter().product(),
             cells_per_layer: basis.grid.cells_per_layer(),
             exchange_seconds: AtomicU64::new(0.0f64.to_bits()),
+            destinations: Mutex::new(Vec::new()),
         })
     }
 
@@ -156,46 +160,51 @@ impl RankContext {
         particles.take_records(|k| (!self.owns_cell(cells[k])).then_some(0), &mut elsewhere);
     }
 
-    /// Send the particles that left this rank's slab to the neighbour slab they entered
-    /// and append the neighbours' arrivals; returns how many left and arrived.
-    ///
-    /// A particle that crossed a whole slab in one step is an error (the time step is
-    /// far above the stability limit, or the slab is thinner than a cell of travel).
-    pub fn migrate<const D: usize>(&self, particles: &mut TensorParticles<D>) -> Result<usize> {
+    /// Mark where every particle goes after this step's update: `None` stays, `Some(0)`
+    /// the lower neighbour, `Some(1)` the upper one (kept for [`Self::migrate`]). Returns
+    /// the id of a particle that crossed a whole slab in one step, if one did (the time
+    /// step is far above the stability limit, or the slab is thinner than a cell of
+    /// travel): every rank must then learn of it before any moves a particle.
+    pub fn plan_migration<const D: usize>(&self, particles: &TensorParticles<D>) -> Option<usize> {
         let r = self.rank();
         let own = self.slabs.cell_layers(r);
-        let layers: Vec<usize> = particles
-            .cell
-            .iter()
-            .map(|&c| c / self.cells_per_layer)
-            .collect();
+        let mut destinations = self
+            .destinations
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        destinations.clear();
         let mut jumped = None;
-        let destination = |k: usize| {
-            let layer = layers[k];
+        destinations.extend(particles.cell.iter().zip(&particles.id).map(|(&c, &id)| {
+            let layer = c / self.cells_per_layer;
             if own.contains(&layer) {
                 return None;
             }
             let owner = self.slabs.owner_of_layer(layer);
-            Some(usize::from(owner > r))
-        };
-        for (k, &layer) in layers.iter().enumerate() {
-            if !own.contains(&layer) && self.slabs.owner_of_layer(layer).abs_diff(r) > 1 {
-                jumped = jumped.or(Some(particles.id[k]));
+            if owner.abs_diff(r) > 1 {
+                jumped = jumped.or(Some(id));
             }
+            Some(usize::from(owner > r))
+        }));
+        jumped
+    }
+
+    /// Send the particles [`Self::plan_migration`] marked to the neighbour slab they
+    /// entered and append the neighbours' arrivals; returns how many left and arrived.
+    pub fn migrate<const D: usize>(&self, particles: &mut TensorParticles<D>) -> Result<usize> {
+        let mut outboxes = [Vec::new(), Vec::new()];
+        {
+            let destinations = self
+                .destinations
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            if destinations.len() != particles.len() {
+                return Err(exchange_error(
+                    "the particles changed between planning and migrating",
+                ));
+            }
+            particles.take_records(|k| destinations[k], &mut outboxes);
         }
-        let mut outboxes = vec![Vec::new(), Vec::new()];
-        particles.take_records(destination, &mut outboxes);
         let left = (outboxes[0].len() + outboxes[1].len()) / TensorParticles::<D>::record_len();
-        let jumped_anywhere = self.any_failed(jumped.is_some())?;
-        if jumped_anywhere {
-            return Err(match jumped {
-                Some(id) => Error::Solver {
-                    solver: "rank exchange".to_string(),
-                    reason: format!("particle {id} crossed a whole slab in one step"),
-                },
-                None => exchange_error("a particle of another rank crossed a whole slab"),
-            });
-        }
         let (from_lower, from_upper) = self.timed(|| {
             self.exchange
                 .swap_with_neighbours(&outboxes[0], &outboxes[1])
@@ -233,10 +242,7 @@ pub fn gather_particles<const D: usize>(
     exchange: &dyn RankExchange,
     particles: &TensorParticles<D>,
 ) -> Result<Option<TensorParticles<D>>> {
-    let mut mine = particles.clone();
-    let mut records = vec![Vec::new()];
-    mine.take_records(|_| Some(0), &mut records);
-    match exchange.gather_to_root(&records[0])? {
+    match exchange.gather_to_root(&particles.records())? {
         Some(all) => {
             let mut gathered = TensorParticles::default();
             gathered.append_records(&all)?;

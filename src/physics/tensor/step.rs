@@ -288,23 +288,43 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         let mut outcome = outcome;
         let mut migrated = 0;
         if let Some(ranks) = &self.ranks {
-            if outcome.failure.is_none() && ranks.any_failed(false)? {
-                return Err(Error::Solver {
-                    solver: "rank exchange".to_string(),
+            // One collective after the update: failures, diagnostics and slab jumps.
+            let failed = outcome.failure.is_some();
+            let jumped = if failed {
+                None
+            } else {
+                ranks.plan_migration(particles)
+            };
+            let local = [
+                f64::from(u8::from(failed)),
+                outcome.energies.0,
+                outcome.energies.1,
+                outcome.crossings as f64,
+                f64::from(u8::from(jumped.is_some())),
+            ];
+            let total = ranks.sum(&local)?;
+            if total[0] > 0.0 && !failed {
+                return Err(Error::Distributed {
                     reason: format!("another rank failed at step {step} (t = {time:e} s)"),
                 });
             }
-            if outcome.failure.is_some() {
-                ranks.any_failed(true)?;
-            } else {
-                let local = [
-                    outcome.energies.0,
-                    outcome.energies.1,
-                    outcome.crossings as f64,
-                ];
-                let total = ranks.sum(&local)?;
-                outcome.energies = (total[0], total[1]);
-                outcome.crossings = total[2] as usize;
+            if !failed {
+                if total[4] > 0.0 {
+                    return Err(Error::Distributed {
+                        reason: match jumped {
+                            Some(id) => format!(
+                                "particle {id} crossed a whole slab at step {step} \
+                                 (t = {time:e} s): the time step is too large"
+                            ),
+                            None => format!(
+                                "a particle of another rank crossed a whole slab at step \
+                                 {step} (t = {time:e} s)"
+                            ),
+                        },
+                    });
+                }
+                outcome.energies = (total[1], total[2]);
+                outcome.crossings = total[3] as usize;
                 migrated = ranks.migrate(particles)?;
             }
         }
