@@ -15,8 +15,7 @@ use crate::linalg::{
     PMultigrid, Pcg, PmgPreconditioner, PmgSettings, Smoother, TransferKind,
 };
 
-/// Most iterations of an iterative solve before it is reported as a failure.
-pub const MAX_ITERATIONS: usize = 10_000;
+pub use crate::linalg::MAX_ITERATIONS;
 /// Most V-cycles of a p-multigrid solve.
 pub const MAX_CYCLES: usize = 2_000;
 

@@ -9,7 +9,7 @@ use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::app::RunOptions;
 use crate::config::MassKind;
 use crate::config::{
-    integer_root, BasisKind, MaterialModel, ReconstructionKind, Scenario, TimeStep,
+    integer_root, BasisKind, MaterialModel, ReconstructionKind, Scenario, SolverKind, TimeStep,
     VelocityReference,
 };
 use crate::error::{Error, Result};
@@ -19,6 +19,7 @@ use crate::linalg::CoarseOperators;
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::TensorDirectMapping;
 use crate::mapping::tensor_tls::TensorTlsMapping;
+use crate::mapping::RemedyCounts;
 use crate::output::csv::write_history;
 use crate::output::scatter::{scatter_plot, ScatterAxes};
 use crate::output::summary::{Conservation, Errors, SolverSummary};
@@ -272,6 +273,7 @@ impl Parts<'_> {
             method.mass,
             basis.num_dofs(),
             &constraints,
+            config.tolerance,
             || build_solver(&config, &geometry),
         )
     }
@@ -300,6 +302,18 @@ fn run_dim<const D: usize>(
     progress: &mut (dyn FnMut(usize, usize) + Send),
 ) -> Result<Summary> {
     let pool = crate::app::run::thread_pool(options.threads)?;
+    // The consistent mass of a distributed run defaults to Jacobi CG (the 2D / 3D default,
+    // the Kronecker preconditioner, is not local per rank).
+    let distributed_scenario;
+    let scenario = match (&options.ranks, scenario.solver.kind) {
+        (Some(_), None) => {
+            let mut s = scenario.clone();
+            s.solver.kind = Some(SolverKind::Pcg);
+            distributed_scenario = s;
+            &distributed_scenario
+        }
+        _ => scenario,
+    };
     let (problem, mut simulation) =
         pool.install(|| build_tensor_simulation::<D>(scenario, options.force))?;
     // A distributed run: this rank's slab of particles; `gather` brings every rank's
@@ -388,6 +402,7 @@ fn run_dim<const D: usize>(
             None => false,
         },
     };
+    let remedies = remedies_over_ranks(&gather, simulation.stepper.remedies())?;
     if vtk && write_files {
         let final_file = format!("particles_{:04}.vtu", vtk_series.len());
         if vtk_series.last().is_none_or(|(t, _)| *t < simulation.time) {
@@ -407,10 +422,38 @@ fn run_dim<const D: usize>(
             wall_seconds,
             outcome.as_ref().err(),
             &options.warnings,
+            remedies,
             write_files,
         )
     })?;
     outcome.map(|()| summary)
+}
+
+/// `local` summed over the ranks of a distributed run (each counts its own cells).
+fn remedies_over_ranks(
+    gather: &Option<Box<dyn RankExchange>>,
+    local: RemedyCounts,
+) -> Result<RemedyCounts> {
+    let Some(exchange) = gather else {
+        return Ok(local);
+    };
+    let counts = [
+        local.degenerate_fits,
+        local.virtual_point_fits,
+        local.order_reduced_fits,
+        local.density_limited_fits,
+        local.strain_fallbacks,
+    ];
+    // Counts are exact in f64 below 2^53.
+    let total = exchange.sum_over_ranks(&counts.map(|c| c as f64))?;
+    let count = |k: usize| total.get(k).copied().unwrap_or(0.0) as u64;
+    Ok(RemedyCounts {
+        degenerate_fits: count(0),
+        virtual_point_fits: count(1),
+        order_reduced_fits: count(2),
+        density_limited_fits: count(3),
+        strain_fallbacks: count(4),
+    })
 }
 
 /// The particles to write: all of them, and on rank 0 only for a distributed run (whose
@@ -543,6 +586,7 @@ fn write_outputs<const D: usize>(
     wall_seconds: f64,
     failure: Option<&Error>,
     extra_warnings: &[String],
+    remedies: RemedyCounts,
     write_files: bool,
 ) -> Result<Summary> {
     let p = &simulation.particles;
@@ -600,7 +644,7 @@ fn write_outputs<const D: usize>(
             }
         },
         timings: Some(simulation.stepper.timings()),
-        reconstruction_remedies: simulation.stepper.remedies(),
+        reconstruction_remedies: remedies,
         warnings,
         config: scenario.clone(),
     };

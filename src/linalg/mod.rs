@@ -40,6 +40,9 @@ pub struct SolveStats {
     pub relative_residual: f64,
 }
 
+/// Most iterations of an iterative solve before it is reported as a failure.
+pub const MAX_ITERATIONS: usize = 10_000;
+
 /// A solver for the symmetric positive definite systems `A x = b` of the consistent mass
 /// matrix.
 pub trait LinearSolver: Send {

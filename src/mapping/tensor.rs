@@ -6,9 +6,29 @@
 
 use super::tensor_direct::{TensorBody, TensorGridFields};
 use super::RemedyCounts;
+use crate::error::Result;
 use crate::grid::{Basis, TensorBasis, TensorShapeCache};
 use crate::linalg::CsrMatrix;
 use crate::particles::TensorParticles;
+use std::ops::Range;
+use std::sync::Arc;
+
+/// The other ranks of a distributed run as a mapping sees them
+/// (`crate::physics::distributed::RankContext` implements it; `docs/distributed.md`):
+/// a reconstruction whose cell quantities reach across a slab face completes them here.
+pub trait SlabCells: Send + Sync + std::fmt::Debug {
+    /// This rank's cells: lexicographic indices, one contiguous range (slabs cut the last
+    /// axis, the slowest index).
+    fn owned_cells(&self) -> Range<usize>;
+
+    /// Add the neighbours' values on the two cell layers at each slab face (the slab's
+    /// boundary layer and the neighbour's first one), `width` values per cell. Afterwards
+    /// the values of this rank's cells are complete.
+    fn add_shared_cells(&self, values: &mut [f64], width: usize) -> Result<()>;
+
+    /// Replace every entry of `values` by its minimum over ranks.
+    fn min_over_ranks(&self, values: &mut [f64]) -> Result<()>;
+}
 
 /// Particle → grid transfers of one step.
 pub trait TensorMapping<const D: usize>: Send + Sync {
@@ -28,7 +48,7 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
         cell_start: &[usize],
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
-    );
+    ) -> Result<()>;
 
     /// `p_I` of the current particle velocities into `fields.momentum`.
     fn map_momentum<B: Basis>(
@@ -37,7 +57,7 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
         particles: &TensorParticles<D>,
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
-    );
+    ) -> Result<()>;
 
     /// MUSL: `v_p += dt sum_I phi_I a_I`, then `p_I` from the updated velocities. Returns
     /// `sum_p m_p v_p` (components `0..D`) and `sum_p m_p |v_p|` (last entry), summed in a
@@ -49,7 +69,16 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
         cell_start: &[usize],
         dt: f64,
         fields: &mut TensorGridFields<D>,
-    ) -> [f64; 4];
+    ) -> Result<[f64; 4]>;
+
+    /// Make the mapping one rank's part of a distributed run: it maps the particles of
+    /// the cells `slab` owns and completes with the neighbours what crosses a slab face.
+    /// The default suits mappings whose transfers are particle by particle (the stepper
+    /// sums the shared nodes).
+    fn distribute(&mut self, slab: Arc<dyn SlabCells>) -> Result<()> {
+        let _ = slab;
+        Ok(())
+    }
 
     /// How many layers of cells (along the last axis) a particle may move away from the
     /// cell it was binned in before the particles must be re-sorted: 0 (the default) for

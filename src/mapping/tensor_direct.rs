@@ -14,6 +14,7 @@
 
 use super::tensor::TensorMapping;
 use super::tensor_scatter::TensorScatter;
+use crate::error::Result;
 use crate::grid::shape_cache::with_shape_source;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{
@@ -513,8 +514,9 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
         cell_start: &[usize],
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
-    ) {
-        TensorDirectMapping::map_mass_and_force(self, basis, particles, cell_start, body, fields)
+    ) -> Result<()> {
+        TensorDirectMapping::map_mass_and_force(self, basis, particles, cell_start, body, fields);
+        Ok(())
     }
 
     fn map_momentum<B: Basis>(
@@ -523,8 +525,9 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
         particles: &TensorParticles<D>,
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
-    ) {
-        TensorDirectMapping::map_momentum(self, basis, particles, cell_start, fields)
+    ) -> Result<()> {
+        TensorDirectMapping::map_momentum(self, basis, particles, cell_start, fields);
+        Ok(())
     }
 
     fn update_velocities_and_map_momentum<B: Basis>(
@@ -534,10 +537,10 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
         cell_start: &[usize],
         dt: f64,
         fields: &mut TensorGridFields<D>,
-    ) -> [f64; 4] {
-        TensorDirectMapping::update_velocities_and_map_momentum(
+    ) -> Result<[f64; 4]> {
+        Ok(TensorDirectMapping::update_velocities_and_map_momentum(
             self, basis, particles, cell_start, dt, fields,
-        )
+        ))
     }
 }
 

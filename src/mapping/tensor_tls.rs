@@ -43,12 +43,13 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::sum_factor::CellQuadrature;
-use super::tensor::TensorMapping;
+use super::tensor::{SlabCells, TensorMapping};
 use super::tensor_direct::{half_lengths, split_components, TensorBody, TensorGridFields};
 use super::tensor_mass::{StencilAssembly, MAX_SUPPORT_NODES};
 use super::tensor_scatter::TensorScatter;
 use super::RemedyCounts;
 use crate::config::CellTotals;
+use crate::error::Result;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorGrid, TensorShape};
 use crate::linalg::CsrMatrix;
@@ -58,6 +59,7 @@ use crate::particles::tensor::stress_index;
 use crate::particles::TensorParticles;
 use rayon::prelude::*;
 use std::ops::Range;
+use std::sync::Arc;
 
 /// Cells per rayon task in the per-cell passes.
 const CELLS_PER_TASK: usize = 64;
@@ -155,6 +157,10 @@ pub struct TensorTlsMapping<const D: usize> {
     consistent: Option<StencilAssembly<D>>,
     /// Seconds spent in [`Self::assemble_consistent_mass`] so far.
     assembly_seconds: f64,
+    /// This rank's part of a distributed run: only its cells are fitted and integrated,
+    /// the material extent is taken over all ranks, and cell totals that a particle's
+    /// domain carries across a slab face are completed with the neighbour.
+    slab: Option<Arc<dyn SlabCells>>,
 }
 
 impl<const D: usize> TensorTlsMapping<D> {
@@ -192,6 +198,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             remedies: RemedyCounts::default(),
             consistent: None,
             assembly_seconds: 0.0,
+            slab: None,
         })
     }
 
@@ -263,8 +270,9 @@ impl<const D: usize> TensorTlsMapping<D> {
         half_lengths(particles, &Some(self.half_length0), p)
     }
 
-    /// Material extent and active boxes from the current particles.
-    fn update_boxes(&mut self, particles: &TensorParticles<D>, cell_start: &[usize]) {
+    /// Material extent (over all ranks) and active boxes (of this rank's cells) from the
+    /// current particles.
+    fn update_boxes(&mut self, particles: &TensorParticles<D>, cell_start: &[usize]) -> Result<()> {
         let n = particles.len();
         let this = &*self;
         let (lo_ext, hi_ext) = (0..n)
@@ -291,6 +299,21 @@ impl<const D: usize> TensorTlsMapping<D> {
                     )
                 },
             );
+        let (mut lo_ext, mut hi_ext) = (lo_ext, hi_ext);
+        let mut owned = 0..self.active.len();
+        if let Some(slab) = &self.slab {
+            let mut extent = [0.0; 6];
+            for a in 0..D {
+                extent[a] = lo_ext[a];
+                extent[3 + a] = -hi_ext[a];
+            }
+            slab.min_over_ranks(&mut extent)?;
+            for a in 0..D {
+                lo_ext[a] = extent[a];
+                hi_ext[a] = -extent[3 + a];
+            }
+            owned = slab.owned_cells();
+        }
         let grid = self.grid;
         let require_particles = self.totals == CellTotals::Centres;
         (&mut self.lo, &mut self.hi, &mut self.active)
@@ -299,7 +322,8 @@ impl<const D: usize> TensorTlsMapping<D> {
             .enumerate()
             .for_each(|(cell, (lo, hi, active))| {
                 let index = cell_axes(&grid, cell);
-                let mut ok = !require_particles || cell_start[cell + 1] > cell_start[cell];
+                let mut ok = owned.contains(&cell)
+                    && (!require_particles || cell_start[cell + 1] > cell_start[cell]);
                 for a in 0..D {
                     let g = &grid.axes[a];
                     let left = g.cell_left(index[a]);
@@ -310,6 +334,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                 }
                 *active = ok;
             });
+        Ok(())
     }
 
     /// `cell_totals[e]` (the first `width` entries) of `quantity(p)`: per particle in its
@@ -319,7 +344,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         particles: &TensorParticles<D>,
         cell_start: &[usize],
         quantity: impl Fn(usize) -> [f64; 4] + Sync,
-    ) {
+    ) -> Result<()> {
         let grid = self.grid;
         match self.totals {
             CellTotals::Centres => {
@@ -386,6 +411,10 @@ impl<const D: usize> TensorTlsMapping<D> {
                     });
                 self.shares = shares;
             }
+        }
+        match &self.slab {
+            Some(slab) => slab.add_shared_cells(self.cell_totals.as_flattened_mut(), 4),
+            None => Ok(()),
         }
     }
 
@@ -472,14 +501,14 @@ impl<const D: usize> TensorTlsMapping<D> {
         particles: &TensorParticles<D>,
         cell_start: &[usize],
         values: &[Vec<f64>; D],
-    ) {
+    ) -> Result<()> {
         self.update_totals(particles, cell_start, |p| {
             let mut q = [0.0; 4];
             for a in 0..D {
                 q[a] = particles.mass[p] * values[a][p];
             }
             q
-        });
+        })?;
         let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
         let counts: RemedyCounts = self
             .vector
@@ -517,6 +546,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                 a
             });
         self.remedies += counts;
+        Ok(())
     }
 
     /// `out_I = sum_g w_g v_hat(x_g) phi_I(x_g)` of the fitted vector density.
@@ -687,9 +717,10 @@ impl<const D: usize> TensorTlsMapping<D> {
         cell_start: &[usize],
         values: &[Vec<f64>; D],
         out: &mut [[f64; D]],
-    ) {
-        self.fit_vector(particles, cell_start, values);
+    ) -> Result<()> {
+        self.fit_vector(particles, cell_start, values)?;
         with_fixed_support!(basis, N => self.integrate_vector::<B, N>(basis, out));
+        Ok(())
     }
 }
 
@@ -709,8 +740,8 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         cell_start: &[usize],
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
-    ) {
-        self.update_boxes(particles, cell_start);
+    ) -> Result<()> {
+        self.update_boxes(particles, cell_start)?;
         let per_particle = match body {
             TensorBody::PerParticle(b) => Some(b),
             TensorBody::Uniform(_) => None,
@@ -723,7 +754,7 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
                 }
             }
             q
-        });
+        })?;
         // The body force int (rho b)_hat phi is mapped like a momentum, with the fits of
         // the same pass.
         self.fit_stress_and_density(particles, cell_start, per_particle);
@@ -752,6 +783,7 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
                 }
             }
         }
+        Ok(())
     }
 
     fn map_momentum<B: Basis>(
@@ -760,14 +792,14 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         particles: &TensorParticles<D>,
         cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
-    ) {
+    ) -> Result<()> {
         self.map_vector(
             basis,
             particles,
             cell_start,
             &particles.v,
             &mut fields.momentum,
-        );
+        )
     }
 
     fn update_velocities_and_map_momentum<B: Basis>(
@@ -777,7 +809,7 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         cell_start: &[usize],
         dt: f64,
         fields: &mut TensorGridFields<D>,
-    ) -> [f64; 4] {
+    ) -> Result<[f64; 4]> {
         let sums = with_fixed_support!(basis, N => update_velocities::<D, B, N>(
             basis,
             &self.particle_domains,
@@ -785,8 +817,13 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
             dt,
             &fields.acceleration,
         ));
-        self.map_momentum(basis, particles, cell_start, fields);
-        sums
+        self.map_momentum(basis, particles, cell_start, fields)?;
+        Ok(sums)
+    }
+
+    fn distribute(&mut self, slab: Arc<dyn SlabCells>) -> Result<()> {
+        self.slab = Some(slab);
+        Ok(())
     }
 
     fn remedies(&self) -> RemedyCounts {
@@ -1005,14 +1042,18 @@ mod tests {
         p.sort_by_cell(basis.grid.num_cells(), &mut start, &mut order);
         let mut mapping = TensorTlsMapping::new(&basis, 4, totals, [0.02, 0.02], domain).unwrap();
         let mut fields = TensorGridFields::new(basis.num_dofs());
-        mapping.map_mass_and_force(
-            &basis,
-            &p,
-            &start,
-            TensorBody::Uniform([0.0; 2]),
-            &mut fields,
-        );
-        mapping.map_momentum(&basis, &p, &start, &mut fields);
+        mapping
+            .map_mass_and_force(
+                &basis,
+                &p,
+                &start,
+                TensorBody::Uniform([0.0; 2]),
+                &mut fields,
+            )
+            .unwrap();
+        mapping
+            .map_momentum(&basis, &p, &start, &mut fields)
+            .unwrap();
         let total: f64 = p.mass.iter().sum();
         let grid_mass: f64 = fields.mass.iter().sum();
         prop_assert!(
@@ -1129,13 +1170,15 @@ mod consistent_tests {
                 .with_consistent_mass(&basis)
                 .unwrap();
         let mut fields = TensorGridFields::new(basis.num_dofs());
-        mapping.map_mass_and_force(
-            &basis,
-            &p,
-            &start,
-            TensorBody::Uniform([0.0; 2]),
-            &mut fields,
-        );
+        mapping
+            .map_mass_and_force(
+                &basis,
+                &p,
+                &start,
+                TensorBody::Uniform([0.0; 2]),
+                &mut fields,
+            )
+            .unwrap();
         let m = mapping.consistent_mass().unwrap();
         let dense = m.to_dense();
         let largest = fields.mass.iter().copied().fold(0.0, f64::max);

@@ -21,11 +21,13 @@
 //! them. That is `O(nodes)` memory and work per rank: fine next to the particles at 4–8
 //! per cell for a few ranks, the first thing to restrict for many.
 
+pub mod cg;
 pub mod exchange;
 #[cfg(feature = "mpi")]
 pub mod mpi_ranks;
 pub mod slab;
 
+pub use cg::DistributedCg;
 pub use exchange::{LocalRanks, RankExchange, SingleRank};
 #[cfg(feature = "mpi")]
 pub use mpi_ranks::MpiRanks;
@@ -33,6 +35,7 @@ pub use slab::SlabDecomposition;
 
 use crate::error::Result;
 use crate::grid::{Basis, TensorBasis};
+use crate::mapping::tensor::SlabCells;
 use crate::particles::TensorParticles;
 use exchange::exchange_error;
 use std::ops::Range;
@@ -94,6 +97,11 @@ impl RankContext {
         self.exchange.rank()
     }
 
+    /// The number of ranks.
+    pub fn ranks(&self) -> usize {
+        self.slabs.ranks()
+    }
+
     /// The decomposition.
     pub fn slabs(&self) -> &SlabDecomposition {
         &self.slabs
@@ -119,12 +127,25 @@ impl RankContext {
     /// node, nodes in lexicographic order).
     pub fn add_shared(&self, field: &mut [f64], width: usize) -> Result<()> {
         let r = self.rank();
-        let scaled = |nodes: Range<usize>| nodes.start * width..nodes.end * width;
         let lower = match r {
             0 => 0..0,
-            _ => scaled(self.node_range(self.slabs.shared_with_upper(r - 1))),
+            _ => self.node_range(self.slabs.shared_with_upper(r - 1)),
         };
-        let upper = scaled(self.node_range(self.slabs.shared_with_upper(r)));
+        let upper = self.node_range(self.slabs.shared_with_upper(r));
+        self.add_from_neighbours(field, width, lower, upper)
+    }
+
+    /// Add to `field` on the index ranges `lower` and `upper` (in units of `width` values)
+    /// what the lower and upper neighbours send of theirs on the same ranges.
+    fn add_from_neighbours(
+        &self,
+        field: &mut [f64],
+        width: usize,
+        lower: Range<usize>,
+        upper: Range<usize>,
+    ) -> Result<()> {
+        let scaled = |items: Range<usize>| items.start * width..items.end * width;
+        let (lower, upper) = (scaled(lower), scaled(upper));
         let (from_lower, from_upper) = self.timed(|| {
             self.exchange
                 .swap_with_neighbours(&field[lower.clone()], &field[upper.clone()])
@@ -213,6 +234,55 @@ impl RankContext {
         particles.append_records(&from_lower)?;
         particles.append_records(&from_upper)?;
         Ok(left + particles.len() - before)
+    }
+}
+
+impl std::fmt::Debug for RankContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RankContext")
+            .field("rank", &self.rank())
+            .field("slabs", &self.slabs)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SlabCells for RankContext {
+    fn owned_cells(&self) -> Range<usize> {
+        let layers = self.slabs.cell_layers(self.rank());
+        layers.start * self.cells_per_layer..layers.end * self.cells_per_layer
+    }
+
+    fn add_shared_cells(&self, values: &mut [f64], width: usize) -> Result<()> {
+        let (r, last) = (self.rank(), self.slabs.ranks() - 1);
+        let layers = self.slabs.cell_layers(r);
+        let cells = |l: Range<usize>| l.start * self.cells_per_layer..l.end * self.cells_per_layer;
+        let lower = match r {
+            0 => 0..0,
+            _ => cells(layers.start - 1..layers.start + 1),
+        };
+        let upper = match r == last {
+            true => 0..0,
+            false => cells(layers.end - 1..layers.end + 1),
+        };
+        self.add_from_neighbours(values, width, lower, upper)
+    }
+
+    fn min_over_ranks(&self, values: &mut [f64]) -> Result<()> {
+        // Each rank fills its own slot; the sum (exact: every other term is 0) is the
+        // table of all ranks' values.
+        let (n, r) = (values.len(), self.rank());
+        let mut slots = vec![0.0; n * self.slabs.ranks()];
+        slots[r * n..(r + 1) * n].copy_from_slice(values);
+        let table = self.sum(&slots)?;
+        for (i, value) in values.iter_mut().enumerate() {
+            *value = table
+                .iter()
+                .skip(i)
+                .step_by(n)
+                .copied()
+                .fold(f64::INFINITY, f64::min);
+        }
+        Ok(())
     }
 }
 

@@ -18,9 +18,12 @@
 use super::boundary::NodeConstraints;
 use crate::config::MassKind;
 use crate::error::{Error, Result};
+use crate::linalg::MAX_ITERATIONS;
 use crate::linalg::{CsrMatrix, LinearSolver};
 use crate::mapping::tensor_direct::TensorGridFields;
+use crate::physics::distributed::{DistributedCg, RankContext};
 use crate::physics::mass::MIN_RELATIVE_MASS;
+use std::sync::Arc;
 
 /// One component's system.
 struct ComponentSystem {
@@ -44,19 +47,22 @@ pub struct TensorMassSolve<const D: usize> {
     held: Vec<[bool; D]>,
     rhs: Vec<f64>,
     name: &'static str,
+    /// `solver.tolerance` (for the solvers of a distributed run).
+    tolerance: f64,
     pub solves: usize,
     pub total_iterations: usize,
     pub max_iterations: usize,
 }
 
 impl<const D: usize> TensorMassSolve<D> {
-    /// Solves with one solver per component (from `make_solver`) on `dofs` nodes with the
-    /// face conditions `constraints`.
+    /// Solves with one solver per component (from `make_solver`, to `solver.tolerance` =
+    /// `tolerance` where iterative) on `dofs` nodes with the face conditions `constraints`.
     pub fn new(
         acceleration: MassKind,
         velocity: MassKind,
         dofs: usize,
         constraints: &NodeConstraints<D>,
+        tolerance: f64,
         mut make_solver: impl FnMut() -> Result<Box<dyn LinearSolver>>,
     ) -> Result<Self> {
         let mut held = vec![[false; D]; dofs];
@@ -84,6 +90,7 @@ impl<const D: usize> TensorMassSolve<D> {
             held,
             rhs: vec![0.0; dofs],
             name,
+            tolerance,
             solves: 0,
             total_iterations: 0,
             max_iterations: 0,
@@ -112,9 +119,32 @@ impl<const D: usize> TensorMassSolve<D> {
             .count()
     }
 
-    /// The constrained systems of this step's `matrix` and masses.
-    pub fn prepare(&mut self, mass: &[f64], matrix: &CsrMatrix) {
-        let largest = mass.iter().copied().fold(0.0, f64::max);
+    /// Solve over the ranks of a distributed run: `"cg"` and `"pcg"` become
+    /// [`DistributedCg`]; the other kinds are refused (`docs/distributed.md`).
+    pub fn distribute(&mut self, ranks: &Arc<RankContext>) -> Result<()> {
+        let jacobi = match self.name {
+            "cg" => false,
+            "pcg" => true,
+            kind => {
+                return Err(Error::invalid(
+                    "solver.kind",
+                    format!("\"{kind}\""),
+                    "a distributed run solves the consistent mass with \"cg\" or \"pcg\" \
+                     (the default there): the other solvers factor or invert along the cut \
+                     axis, across every slab",
+                ))
+            }
+        };
+        for system in &mut self.components {
+            let solver = DistributedCg::new(ranks.clone(), jacobi, self.tolerance, MAX_ITERATIONS);
+            system.solver = std::sync::Mutex::new(Box::new(solver));
+        }
+        Ok(())
+    }
+
+    /// The constrained systems of this step's `matrix` and masses; `largest` is the
+    /// largest nodal mass (over all ranks in a distributed run).
+    pub fn prepare(&mut self, mass: &[f64], largest: f64, matrix: &CsrMatrix) {
         let threshold = MIN_RELATIVE_MASS * largest;
         for c in 0..D {
             let (earlier, rest) = self.components.split_at_mut(c);
@@ -256,6 +286,7 @@ mod tests {
             MassKind::Consistent,
             n,
             &constraints,
+            1e-12,
             || {
                 Ok(Box::new(Counting {
                     inner: DirectCholesky::new(),
@@ -270,7 +301,7 @@ mod tests {
             fields.force[i] = [1.0 + i as f64, 2.0 - i as f64];
             fields.momentum[i] = [0.5 * i as f64, 1.0];
         }
-        solve.prepare(&[1.0; 5], &matrix);
+        solve.prepare(&[1.0; 5], 1.0, &matrix);
         solve.accelerations(&mut fields).unwrap();
         solve.velocities(&mut fields).unwrap();
         (

@@ -28,12 +28,13 @@ use crate::error::{Error, Result};
 use crate::grid::shape_cache::with_shape_source;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, EvaluateTensor, TensorBasis, TensorShape, TensorShapeSource};
-use crate::mapping::tensor::TensorMapping;
+use crate::mapping::tensor::{SlabCells, TensorMapping};
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::TensorParticles;
 use crate::physics::distributed::{momentum_error_over_ranks, RankContext, RankExchange};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Particles per rayon task in the particle update.
 const PARTICLES_PER_TASK: usize = 2048;
@@ -70,7 +71,7 @@ pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorD
     bin_layer: Vec<u32>,
     total_mass: f64,
     /// This rank's part of a distributed run (`None`: one process).
-    ranks: Option<RankContext>,
+    ranks: Option<Arc<RankContext>>,
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
@@ -119,19 +120,12 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
     /// Make this stepper one rank of a distributed run: keep only the particles of the
     /// rank's slab and exchange with the other ranks every step
     /// ([`crate::physics::distributed`]). Every rank must call this with the same
-    /// particles. The lumped MUSL step of the direct mapping only, for now.
+    /// particles. MUSL only, for now; the consistent mass with `"cg"` / `"pcg"`.
     pub fn distribute(
         &mut self,
         exchange: Box<dyn RankExchange>,
         particles: &mut TensorParticles<D>,
     ) -> Result<()> {
-        if self.mass_solve.is_some() {
-            return Err(Error::invalid(
-                "method.mass",
-                "\"consistent\"",
-                "a distributed run has the lumped mass only (for now)",
-            ));
-        }
         if self.scheme != Scheme::Musl {
             return Err(Error::invalid(
                 "method.scheme",
@@ -139,14 +133,11 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 "a distributed run steps with MUSL only (for now)",
             ));
         }
-        if self.mapping.name() != "none" {
-            return Err(Error::invalid(
-                "method.reconstruction",
-                format!("\"{}\"", self.mapping.name()),
-                "a distributed run has the direct mapping only (for now)",
-            ));
+        let context = Arc::new(RankContext::new(&self.basis, exchange)?);
+        self.mapping.distribute(context.clone())?;
+        if let Some(solve) = &mut self.mass_solve {
+            solve.distribute(&context)?;
         }
-        let context = RankContext::new(&self.basis, exchange)?;
         context.keep_own(particles);
         let own_mass = deterministic_sum(particles.len(), |p| particles.mass[p]);
         self.total_mass = context.sum(&[own_mass])?[0];
@@ -176,7 +167,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         let mut solve_seconds = 0.0;
         // 1. Mass and force.
         self.mapping
-            .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields);
+            .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields)?;
         let grid_mass = match &self.ranks {
             None => fields.mass.iter().sum::<f64>(),
             Some(ranks) => {
@@ -197,13 +188,19 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         let mut momentum_error = None;
         if self.scheme == Scheme::Usl {
             self.mapping
-                .map_momentum(&self.basis, particles, &self.cell_start, fields);
+                .map_momentum(&self.basis, particles, &self.cell_start, fields)?;
             momentum_error = particle_momentum_error(particles, &fields.momentum);
         }
         self.timings.mass_and_force_seconds += clock.lap();
         if let (Some(solve), Some(matrix)) = (&mut self.mass_solve, self.mapping.consistent_mass())
         {
-            solve.prepare(&fields.mass, matrix);
+            let mut largest = fields.mass.iter().copied().fold(0.0, f64::max);
+            if let Some(ranks) = &self.ranks {
+                let mut negated = [-largest];
+                ranks.min_over_ranks(&mut negated)?;
+                largest = -negated[0];
+            }
+            solve.prepare(&fields.mass, largest, matrix);
         }
         let (consistent_acceleration, consistent_velocity) = match &self.mass_solve {
             Some(s) => (
@@ -229,7 +226,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                     &self.cell_start,
                     dt,
                     fields,
-                ));
+                )?);
                 if let Some(ranks) = &self.ranks {
                     ranks.add_shared(fields.momentum.as_flattened_mut(), D)?;
                 }
@@ -374,7 +371,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             exchange_seconds: self
                 .ranks
                 .as_ref()
-                .map_or(0.0, RankContext::exchange_seconds),
+                .map_or(0.0, |ranks| ranks.exchange_seconds()),
             ..self.timings
         }
     }
