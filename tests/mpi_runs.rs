@@ -6,6 +6,7 @@
 
 use std::path::Path;
 use std::process::{Command, Output};
+use tlsmpm::output::vtu::read_vtu_summary;
 
 fn tlsmpm(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tlsmpm"))
@@ -86,8 +87,20 @@ fn run_args<'a>(scenario: &'a str, out: &'a str, sets: &'a [&'a str]) -> Vec<&'a
 
 #[test]
 fn two_and_four_ranks_write_the_one_process_particles_and_repeat_bit_for_bit() {
-    let cases: [(&str, &[&str]); 2] = [
+    let cases: [(&str, &[&str]); 3] = [
         ("axis_aligned_mms", &["grid.cells=16", "time.end=0.004"]),
+        // TLS with the consistent mass: CG over ranks, to a tolerance below the test's.
+        (
+            "axis_aligned_mms",
+            &[
+                "grid.cells=16",
+                "time.end=0.002",
+                "method.reconstruction=\"tls\"",
+                "method.mass=\"consistent\"",
+                "solver.kind=\"pcg\"",
+                "solver.tolerance=1e-13",
+            ],
+        ),
         (
             "column_compaction",
             &[
@@ -100,8 +113,8 @@ fn two_and_four_ranks_write_the_one_process_particles_and_repeat_bit_for_bit() {
         ),
     ];
     let dir = tempfile::tempdir().expect("temp dir");
-    for (scenario, sets) in cases {
-        let one = dir.path().join(format!("{scenario}_1"));
+    for (case, (scenario, sets)) in cases.into_iter().enumerate() {
+        let one = dir.path().join(format!("{case}_{scenario}_1"));
         let output = tlsmpm(&run_args(scenario, one.to_str().unwrap(), sets));
         assert!(
             output.status.success(),
@@ -109,7 +122,7 @@ fn two_and_four_ranks_write_the_one_process_particles_and_repeat_bit_for_bit() {
             String::from_utf8_lossy(&output.stderr)
         );
         for ranks in [2, 4] {
-            let many = dir.path().join(format!("{scenario}_{ranks}"));
+            let many = dir.path().join(format!("{case}_{scenario}_{ranks}"));
             let args = run_args(scenario, many.to_str().unwrap(), sets);
             let output = mpirun(ranks, env!("CARGO_BIN_EXE_tlsmpm"), &args);
             assert!(
@@ -131,7 +144,7 @@ fn two_and_four_ranks_write_the_one_process_particles_and_repeat_bit_for_bit() {
                 );
             }
             if ranks == 2 {
-                let again = dir.path().join(format!("{scenario}_{ranks}_again"));
+                let again = dir.path().join(format!("{case}_{scenario}_{ranks}_again"));
                 let args = run_args(scenario, again.to_str().unwrap(), sets);
                 let output = mpirun(ranks, env!("CARGO_BIN_EXE_tlsmpm"), &args);
                 assert!(output.status.success());
@@ -146,11 +159,7 @@ fn two_and_four_ranks_write_the_one_process_particles_and_repeat_bit_for_bit() {
 fn a_bad_decomposition_or_a_dying_rank_ends_the_job_with_a_non_zero_exit() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("bad");
-    let args = run_args(
-        "axis_aligned_mms",
-        out.to_str().unwrap(),
-        &["grid.cells=[8, 3]"],
-    );
+    let args = run_args("axis_aligned_mms", out.to_str().unwrap(), &["grid.cells=3"]);
     let output = mpirun(4, env!("CARGO_BIN_EXE_tlsmpm"), &args);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");
@@ -179,4 +188,66 @@ fn a_bad_decomposition_or_a_dying_rank_ends_the_job_with_a_non_zero_exit() {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(started.elapsed().as_secs() < 60, "the job hung");
+}
+
+#[test]
+fn every_rank_writes_its_vtu_piece_and_the_pvtu_names_them() {
+    let sets = [
+        "grid.cells=12",
+        "time.end=0.002",
+        "output.vtk=true",
+        "output.snapshots=1",
+        "method.reconstruction=\"tls\"",
+        "method.mass=\"consistent\"",
+    ];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let one = dir.path().join("one");
+    let output = tlsmpm(&run_args("axis_aligned_mms", one.to_str().unwrap(), &sets));
+    assert!(output.status.success());
+    let many = dir.path().join("many");
+    let output = mpirun(
+        2,
+        env!("CARGO_BIN_EXE_tlsmpm"),
+        &run_args("axis_aligned_mms", many.to_str().unwrap(), &sets),
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let pvd = std::fs::read_to_string(many.join("particles.pvd")).expect("pvd");
+    assert!(pvd.contains("file=\"particles_0001.pvtu\""), "{pvd}");
+    // The consistent mass of a distributed run defaults to Jacobi CG.
+    let summary = std::fs::read_to_string(many.join("summary.json")).expect("summary");
+    assert!(summary.contains("\"kind\": \"pcg\""), "{summary}");
+    for frame in ["particles_0000", "particles_0001"] {
+        let index = std::fs::read_to_string(many.join(format!("{frame}.pvtu"))).expect("pvtu");
+        let reference = std::fs::read_to_string(one.join(format!("{frame}.vtu"))).expect("vtu");
+        let reference = read_vtu_summary(&reference).expect("reference vtu");
+        let mut masses = Vec::new();
+        for rank in 0..2 {
+            let piece = format!("{frame}_{rank:04}.vtu");
+            assert!(
+                index.contains(&format!("<Piece Source=\"{piece}\"/>")),
+                "{index}"
+            );
+            let text = std::fs::read_to_string(many.join(&piece)).expect("piece");
+            let piece = read_vtu_summary(&text).expect("piece vtu");
+            assert!(piece.n_points > 0, "{frame}: rank {rank} wrote no particle");
+            for (name, components, values) in &piece.arrays {
+                let declared = format!("Name=\"{name}\" NumberOfComponents=\"{components}\"");
+                assert!(index.contains(&declared), "{frame}: {declared}");
+                if name == "mass" {
+                    masses.extend(values.iter().map(|m| m.to_bits()));
+                }
+            }
+        }
+        // Together the pieces hold every particle once (masses do not change).
+        let (_, _, reference_mass) = reference
+            .arrays
+            .iter()
+            .find(|(name, _, _)| name == "mass")
+            .expect("mass");
+        let mut expected: Vec<u64> = reference_mass.iter().map(|m| m.to_bits()).collect();
+        masses.sort_unstable();
+        expected.sort_unstable();
+        assert_eq!(masses, expected, "{frame}");
+    }
 }

@@ -15,6 +15,7 @@ pub mod solver_study;
 pub mod solvers;
 pub mod study;
 pub mod tensor_run;
+mod tensor_vtk;
 pub mod warnings;
 
 pub use build::build_simulation;

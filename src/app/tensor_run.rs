@@ -6,6 +6,7 @@
 //! is returned, as in 1D.
 
 use crate::app::solvers::{build_solver, SolverGeometry};
+use crate::app::tensor_vtk::VtkFrames;
 use crate::app::RunOptions;
 use crate::config::MassKind;
 use crate::config::{
@@ -24,9 +25,8 @@ use crate::output::csv::write_history;
 use crate::output::scatter::{scatter_plot, ScatterAxes};
 use crate::output::summary::{Conservation, Errors, SolverSummary};
 use crate::output::tensor_csv::{write_tensor_particles, TensorExactColumn};
-use crate::output::vtu::{write_pvd, write_vtu, PointArray};
 use crate::output::Summary;
-use crate::particles::tensor::{stress_index, STRESS_COMPONENTS};
+use crate::particles::tensor::STRESS_COMPONENTS;
 use crate::particles::TensorParticles;
 use crate::physics::distributed::{gather_particles, RankExchange};
 use crate::physics::tensor::stability::tensor_critical_time_step;
@@ -337,7 +337,7 @@ fn run_dim<const D: usize>(
     let snapshots = scenario.output.snapshots;
     let vtk = scenario.output.vtk;
     let end = scenario.time.end;
-    let mut vtk_series: Vec<(f64, String)> = Vec::new();
+    let mut frames = VtkFrames::new(out, gather.as_deref())?;
     let mut snapshot_error = None;
     let mut next_snapshot = 1;
     let estimate = |sim: &TensorSimulation<D>| {
@@ -347,11 +347,7 @@ fn run_dim<const D: usize>(
         })
     };
     if vtk {
-        let file = "particles_0000.vtu".to_string();
-        if let Some(p) = writable(&gather, &simulation.particles)? {
-            write_vtu_of(&out.join(&file), &p)?;
-        }
-        vtk_series.push((0.0, file));
+        frames.write(0, 0.0, &simulation.particles)?;
     }
     let clock = Instant::now();
     let outcome = pool.install(|| {
@@ -364,14 +360,13 @@ fn run_dim<const D: usize>(
             {
                 let k = next_snapshot;
                 next_snapshot += 1;
-                let Some(p) = writable(&gather, &sim.particles)? else {
-                    continue;
-                };
+                // VTU: each rank its piece; CSV: every rank's particles on rank 0.
                 let result = if vtk {
-                    let file = format!("particles_{k:04}.vtu");
-                    vtk_series.push((sim.time, file.clone()));
-                    write_vtu_of(&out.join(file), &p)
+                    frames.write(k, sim.time, &sim.particles)
                 } else {
+                    let Some(p) = writable(&gather, &sim.particles)? else {
+                        continue;
+                    };
                     let columns = exact_columns_of(&problem, &p, sim, scenario);
                     write_tensor_particles(
                         &out.join(format!("snapshot_{k:04}.csv")),
@@ -392,24 +387,24 @@ fn run_dim<const D: usize>(
         return Err(e);
     }
     // Rank 0 of a distributed run writes with every rank's particles.
-    let write_files = match &gather {
-        None => true,
+    let (write_files, own_particles) = match &gather {
+        None => (true, None),
         Some(exchange) => match gather_particles(exchange.as_ref(), &simulation.particles)? {
-            Some(all) => {
-                simulation.particles = all;
-                true
-            }
-            None => false,
+            Some(all) => (
+                true,
+                Some(std::mem::replace(&mut simulation.particles, all)),
+            ),
+            None => (false, None),
         },
     };
+    // This rank's particles (for its VTU piece), all of them in one process.
+    let own_particles = own_particles.as_ref().unwrap_or(&simulation.particles);
     let remedies = remedies_over_ranks(&gather, simulation.stepper.remedies())?;
-    if vtk && write_files {
-        let final_file = format!("particles_{:04}.vtu", vtk_series.len());
-        if vtk_series.last().is_none_or(|(t, _)| *t < simulation.time) {
-            write_vtu_of(&out.join(&final_file), &simulation.particles)?;
-            vtk_series.push((simulation.time, final_file));
+    if vtk {
+        if frames.last_time().is_none_or(|t| t < simulation.time) {
+            frames.write(frames.len(), simulation.time, own_particles)?;
         }
-        write_pvd(&out.join("particles.pvd"), &vtk_series)?;
+        frames.finish()?;
     }
     let summary = pool.install(|| {
         write_outputs(
@@ -551,28 +546,6 @@ pub fn vector_errors(numerical: &[&[f64]], exact: &[Vec<f64>], stress: bool) -> 
         f64::NAN
     };
     (rms, rel)
-}
-
-fn write_vtu_of<const D: usize>(path: &Path, p: &TensorParticles<D>) -> Result<()> {
-    let coordinates: Vec<&[f64]> = p.x.iter().map(|c| c.as_slice()).collect();
-    fn vector<const D: usize>(field: &[Vec<f64>; D]) -> Vec<&[f64]> {
-        field.iter().map(|c| c.as_slice()).collect()
-    }
-    let stress: Vec<&[f64]> = [(0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2)]
-        .iter()
-        .map(|&(a, b)| p.stress[stress_index(a, b)].as_slice())
-        .collect();
-    let density = p.densities();
-    // Stress in ParaView's symmetric-tensor order: XX, YY, ZZ, XY, YZ, XZ.
-    let arrays = [
-        PointArray::new("displacement", vector(&p.u)),
-        PointArray::new("velocity", vector(&p.v)),
-        PointArray::new("stress", stress),
-        PointArray::new("volume", vec![&p.volume]),
-        PointArray::new("density", vec![&density]),
-        PointArray::new("mass", vec![&p.mass]),
-    ];
-    write_vtu(path, &coordinates, &arrays)
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -10,16 +10,14 @@ use crate::error::Result;
 use crate::grid::{Basis, TensorBasis, TensorShapeCache};
 use crate::linalg::CsrMatrix;
 use crate::particles::TensorParticles;
-use std::ops::Range;
 use std::sync::Arc;
 
 /// The other ranks of a distributed run as a mapping sees them
 /// (`crate::physics::distributed::RankContext` implements it; `docs/distributed.md`):
 /// a reconstruction whose cell quantities reach across a slab face completes them here.
 pub trait SlabCells: Send + Sync + std::fmt::Debug {
-    /// This rank's cells: lexicographic indices, one contiguous range (slabs cut the last
-    /// axis, the slowest index).
-    fn owned_cells(&self) -> Range<usize>;
+    /// Whether lexicographic cell `cell` is one of this rank's.
+    fn owns_cell(&self, cell: usize) -> bool;
 
     /// Add the neighbours' values on the two cell layers at each slab face (the slab's
     /// boundary layer and the neighbour's first one), `width` values per cell. Afterwards

@@ -300,7 +300,6 @@ impl<const D: usize> TensorTlsMapping<D> {
                 },
             );
         let (mut lo_ext, mut hi_ext) = (lo_ext, hi_ext);
-        let mut owned = 0..self.active.len();
         if let Some(slab) = &self.slab {
             let mut extent = [0.0; 6];
             for a in 0..D {
@@ -312,17 +311,17 @@ impl<const D: usize> TensorTlsMapping<D> {
                 lo_ext[a] = extent[a];
                 hi_ext[a] = -extent[3 + a];
             }
-            owned = slab.owned_cells();
         }
         let grid = self.grid;
         let require_particles = self.totals == CellTotals::Centres;
+        let slab = self.slab.as_deref();
         (&mut self.lo, &mut self.hi, &mut self.active)
             .into_par_iter()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
             .for_each(|(cell, (lo, hi, active))| {
                 let index = cell_axes(&grid, cell);
-                let mut ok = owned.contains(&cell)
+                let mut ok = slab.is_none_or(|s| s.owns_cell(cell))
                     && (!require_particles || cell_start[cell + 1] > cell_start[cell]);
                 for a in 0..D {
                     let g = &grid.axes[a];

@@ -6,6 +6,7 @@ pub mod csv;
 pub mod exp_format;
 pub mod legend;
 pub mod plot;
+pub mod pvtu;
 pub mod rows;
 pub mod run_dir;
 pub mod scatter;

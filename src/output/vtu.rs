@@ -529,7 +529,7 @@ fn format_time(t: f64) -> String {
 }
 
 /// Escape the five XML special characters for use in a double-quoted attribute.
-fn escape_xml(text: &str) -> String {
+pub(crate) fn escape_xml(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for ch in text.chars() {
         match ch {

@@ -108,14 +108,7 @@ impl DistributedCg {
 
     /// The dot products `(u_k, v_k)` over all ranks' owned nodes, in one exchange.
     fn dots<const K: usize>(&self, pairs: [(&[f64], &[f64]); K]) -> Result<[f64; K]> {
-        let owned = self.ranks.owned_nodes();
-        let local = pairs.map(|(u, v)| {
-            u[owned.clone()]
-                .iter()
-                .zip(&v[owned.clone()])
-                .map(|(a, b)| a * b)
-                .sum::<f64>()
-        });
+        let local = pairs.map(|(u, v)| self.ranks.sum_over_owned_nodes(|i| u[i] * v[i]));
         let total = self.ranks.sum(&local)?;
         Ok(std::array::from_fn(|k| total[k]))
     }

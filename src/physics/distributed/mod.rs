@@ -43,15 +43,51 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
-/// One rank's part in a distributed step: its exchange, the decomposition, and the sizes
-/// that turn node and cell layers into flat index ranges.
+/// How layers along the cut axis sit in a lexicographic numbering (axis 0 fastest): a
+/// set of layers is one contiguous run of indices per index of the slower axes.
+#[derive(Clone, Copy, Debug)]
+struct Layers {
+    /// Items (nodes or cells) per step along the cut axis: the product of the faster axes'
+    /// counts.
+    stride: usize,
+    /// Layers along the cut axis.
+    count: usize,
+    /// Items in all.
+    total: usize,
+}
+
+impl Layers {
+    fn of(counts: &[usize], axis: usize) -> Self {
+        Self {
+            stride: counts[..axis].iter().product(),
+            count: counts[axis],
+            total: counts.iter().product(),
+        }
+    }
+
+    /// The cut-axis layer of item `index`.
+    fn layer_of(&self, index: usize) -> usize {
+        (index / self.stride) % self.count
+    }
+
+    /// The contiguous index runs of `layers`, in increasing order.
+    fn runs(&self, layers: Range<usize>) -> impl Iterator<Item = Range<usize>> + '_ {
+        let block = self.stride * self.count;
+        (0..self.total / block.max(1)).filter_map(move |outer| {
+            let base = outer * block;
+            (!layers.is_empty())
+                .then(|| base + layers.start * self.stride..base + layers.end * self.stride)
+        })
+    }
+}
+
+/// One rank's part in a distributed step: its exchange, the decomposition, and how node
+/// and cell layers of the cut axis map to flat indices.
 pub struct RankContext {
     exchange: Box<dyn RankExchange>,
     slabs: SlabDecomposition,
-    /// Nodes per last-axis node layer (the product of the other axes' DOFs).
-    nodes_per_layer: usize,
-    /// Cells per last-axis cell layer.
-    cells_per_layer: usize,
+    nodes: Layers,
+    cells: Layers,
     /// Seconds spent in the exchange so far (the bits of an `f64`).
     exchange_seconds: AtomicU64,
     /// Where each particle goes this step ([`Self::plan_migration`]), reused.
@@ -66,12 +102,13 @@ impl RankContext {
         exchange: Box<dyn RankExchange>,
     ) -> Result<Self> {
         let slabs = SlabDecomposition::new(basis, exchange.ranks())?;
-        let dofs = basis.dofs();
+        let axis = slabs.axis();
+        let cells: Vec<usize> = basis.grid.axes.iter().map(|g| g.cells).collect();
         Ok(Self {
             exchange,
+            nodes: Layers::of(&basis.dofs(), axis),
+            cells: Layers::of(&cells, axis),
             slabs,
-            nodes_per_layer: dofs[..D - 1].iter().product(),
-            cells_per_layer: basis.grid.cells_per_layer(),
             exchange_seconds: AtomicU64::new(0.0f64.to_bits()),
             destinations: Mutex::new(Vec::new()),
         })
@@ -111,16 +148,18 @@ impl RankContext {
     pub fn owns_cell(&self, cell: usize) -> bool {
         self.slabs
             .cell_layers(self.rank())
-            .contains(&(cell / self.cells_per_layer))
+            .contains(&self.cells.layer_of(cell))
     }
 
-    /// The flat node indices of this rank's owned node layers.
-    pub fn owned_nodes(&self) -> Range<usize> {
-        self.node_range(self.slabs.owned_node_layers(self.rank()))
+    /// The flat node indices of this rank's owned node layers, as contiguous runs in
+    /// increasing order (one run when the cut axis is the last).
+    pub fn owned_nodes(&self) -> impl Iterator<Item = Range<usize>> + '_ {
+        self.nodes.runs(self.slabs.owned_node_layers(self.rank()))
     }
 
-    fn node_range(&self, layers: Range<usize>) -> Range<usize> {
-        layers.start * self.nodes_per_layer..layers.end * self.nodes_per_layer
+    /// `sum_i value(i)` over this rank's owned nodes, in index order.
+    pub fn sum_over_owned_nodes(&self, value: impl Fn(usize) -> f64) -> f64 {
+        self.owned_nodes().flatten().map(value).sum()
     }
 
     /// Add the neighbours' values on the shared node layers of `field` (`width` values per
@@ -129,35 +168,49 @@ impl RankContext {
         let r = self.rank();
         let lower = match r {
             0 => 0..0,
-            _ => self.node_range(self.slabs.shared_with_upper(r - 1)),
+            _ => self.slabs.shared_with_upper(r - 1),
         };
-        let upper = self.node_range(self.slabs.shared_with_upper(r));
-        self.add_from_neighbours(field, width, lower, upper)
+        let upper = self.slabs.shared_with_upper(r);
+        self.add_from_neighbours(field, width, self.nodes, lower, upper)
     }
 
-    /// Add to `field` on the index ranges `lower` and `upper` (in units of `width` values)
-    /// what the lower and upper neighbours send of theirs on the same ranges.
+    /// Add to `field` on the layers `lower` and `upper` (`width` values per item of
+    /// `layout`) what the lower and upper neighbours send of theirs on the same layers.
     fn add_from_neighbours(
         &self,
         field: &mut [f64],
         width: usize,
+        layout: Layers,
         lower: Range<usize>,
         upper: Range<usize>,
     ) -> Result<()> {
-        let scaled = |items: Range<usize>| items.start * width..items.end * width;
-        let (lower, upper) = (scaled(lower), scaled(upper));
-        let (from_lower, from_upper) = self.timed(|| {
-            self.exchange
-                .swap_with_neighbours(&field[lower.clone()], &field[upper.clone()])
-        })?;
-        for (range, received) in [(lower, from_lower), (upper, from_upper)] {
-            if received.len() != range.len() {
+        let runs = |layers: Range<usize>| {
+            layout
+                .runs(layers)
+                .map(|r| r.start * width..r.end * width)
+                .collect::<Vec<_>>()
+        };
+        let (lower, upper) = (runs(lower), runs(upper));
+        let pack = |runs: &[Range<usize>]| -> Vec<f64> {
+            runs.iter()
+                .flat_map(|r| field[r.clone()].iter().copied())
+                .collect()
+        };
+        let (send_lower, send_upper) = (pack(&lower), pack(&upper));
+        let (from_lower, from_upper) =
+            self.timed(|| self.exchange.swap_with_neighbours(&send_lower, &send_upper))?;
+        for (runs, received) in [(lower, from_lower), (upper, from_upper)] {
+            let len: usize = runs.iter().map(|r| r.len()).sum();
+            if received.len() != len {
                 return Err(exchange_error(
                     "a neighbour sent a shared layer of another size",
                 ));
             }
-            for (value, other) in field[range].iter_mut().zip(&received) {
-                *value += other;
+            let mut received = received.iter();
+            for run in runs {
+                for (value, other) in field[run].iter_mut().zip(received.by_ref()) {
+                    *value += other;
+                }
             }
         }
         Ok(())
@@ -196,7 +249,7 @@ impl RankContext {
         destinations.clear();
         let mut jumped = None;
         destinations.extend(particles.cell.iter().zip(&particles.id).map(|(&c, &id)| {
-            let layer = c / self.cells_per_layer;
+            let layer = self.cells.layer_of(c);
             if own.contains(&layer) {
                 return None;
             }
@@ -247,24 +300,22 @@ impl std::fmt::Debug for RankContext {
 }
 
 impl SlabCells for RankContext {
-    fn owned_cells(&self) -> Range<usize> {
-        let layers = self.slabs.cell_layers(self.rank());
-        layers.start * self.cells_per_layer..layers.end * self.cells_per_layer
+    fn owns_cell(&self, cell: usize) -> bool {
+        RankContext::owns_cell(self, cell)
     }
 
     fn add_shared_cells(&self, values: &mut [f64], width: usize) -> Result<()> {
         let (r, last) = (self.rank(), self.slabs.ranks() - 1);
         let layers = self.slabs.cell_layers(r);
-        let cells = |l: Range<usize>| l.start * self.cells_per_layer..l.end * self.cells_per_layer;
         let lower = match r {
             0 => 0..0,
-            _ => cells(layers.start - 1..layers.start + 1),
+            _ => layers.start - 1..layers.start + 1,
         };
         let upper = match r == last {
             true => 0..0,
-            false => cells(layers.end - 1..layers.end + 1),
+            false => layers.end - 1..layers.end + 1,
         };
-        self.add_from_neighbours(values, width, lower, upper)
+        self.add_from_neighbours(values, width, self.cells, lower, upper)
     }
 
     fn min_over_ranks(&self, values: &mut [f64]) -> Result<()> {
@@ -296,7 +347,7 @@ pub fn momentum_error_over_ranks<const D: usize>(
 ) -> Result<Option<f64>> {
     let mut local = vec![0.0; 2 * D + 1];
     for c in 0..D {
-        local[c] = grid[context.owned_nodes()].iter().map(|g| g[c]).sum();
+        local[c] = context.sum_over_owned_nodes(|i| grid[i][c]);
         local[D + c] = particle[c];
     }
     local[2 * D] = scale;

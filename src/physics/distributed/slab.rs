@@ -1,6 +1,7 @@
-//! Slabs of cell layers along the last axis, one per rank (`docs/distributed.md`).
+//! Slabs of cell layers along one axis, one per rank (`docs/distributed.md`).
 //!
-//! Rank `r` of `R` owns the cells of last-axis layers `[c_r, c_{r+1})` and every particle
+//! The cut axis is the one with the most cells (the last of equals). Rank `r` of `R` owns
+//! the cells of that axis' layers `[c_r, c_{r+1})` and every particle
 //! in them; the layers are split as evenly as possible (the first `L mod R` ranks take one
 //! layer more). Its particles can touch the node layers [`TensorBasis::layer_dofs`] of its
 //! cells (`touched`), a range that overlaps the neighbours' by the basis support: those
@@ -9,9 +10,9 @@
 //! rank `r` **owns** `[t_r, t_{r+1})` with `t_r` the first node layer rank `r` touches
 //! (`t_0 = 0`, the last rank owns up to the end).
 //!
-//! The last axis is the slowest in the lexicographic numbering of cells and nodes, so a
-//! rank's cells, its touched nodes and each shared range are contiguous in memory, and the
-//! step's per-layer bins already sort particles by that axis. A decomposition is refused
+//! Along the last axis (the slowest in the lexicographic numbering) a rank's cells and
+//! nodes and each shared range are contiguous in memory; along another axis they are
+//! strided, one contiguous run per index of the slower axes. A decomposition is refused
 //! unless every rank shares nodes with its direct neighbours only (a slab at least as
 //! thick as the basis support), so that one exchange with each neighbour completes a sum.
 
@@ -19,9 +20,11 @@ use crate::error::{Error, Result};
 use crate::grid::{Basis, TensorBasis};
 use std::ops::Range;
 
-/// The split of a grid's last-axis cell layers over ranks.
+/// The split of a grid's cell layers along one axis over ranks.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SlabDecomposition {
+    /// The cut axis.
+    axis: usize,
     cell_layers: Vec<Range<usize>>,
     touched: Vec<Range<usize>>,
     owned: Vec<Range<usize>>,
@@ -29,14 +32,34 @@ pub struct SlabDecomposition {
 }
 
 impl SlabDecomposition {
-    /// `ranks` slabs of the last axis of `basis`' grid.
+    /// `ranks` slabs of `basis`' grid along its longest axis in cells (the last of
+    /// equals).
     ///
-    /// Errors (naming `grid.cells`) when there are more ranks than last-axis cell layers
-    /// or a slab would be thinner than the basis support.
+    /// Errors (naming `grid.cells`) when there are more ranks than cell layers along that
+    /// axis or a slab would be thinner than the basis support.
     pub fn new<const D: usize, B: Basis>(basis: &TensorBasis<D, B>, ranks: usize) -> Result<Self> {
-        let layers = basis.grid.axes[D - 1].cells;
-        let node_layers = basis.dofs()[D - 1];
-        Self::from_layer_dofs(layers, node_layers, ranks, |l| basis.layer_dofs(l))
+        let axis = (0..D)
+            .rev()
+            .max_by_key(|&a| (basis.grid.axes[a].cells, a))
+            .unwrap_or(0);
+        let layers = basis.grid.axes[axis].cells;
+        let node_layers = basis.dofs()[axis];
+        let along = basis.axis(axis);
+        let mut slabs = Self::from_layer_dofs(layers, node_layers, ranks, |l| {
+            let (first, _) = along.cell_window(l.start);
+            let (end_first, end_len) = along.cell_window(l.end - 1);
+            first..end_first + end_len
+        })
+        .map_err(|e| match e {
+            Error::InvalidValue { key, value, reason } => Error::InvalidValue {
+                key,
+                value,
+                reason: reason.replace("the cut axis", &format!("axis {}", ["x", "y", "z"][axis])),
+            },
+            e => e,
+        })?;
+        slabs.axis = axis;
+        Ok(slabs)
     }
 
     /// The split of `layers` cell layers whose cells touch the node layers
@@ -70,7 +93,7 @@ impl SlabDecomposition {
                 "grid.cells",
                 layers,
                 format!(
-                    "{ranks} ranks on {layers} cell layers along the last axis: at most one \
+                    "{ranks} ranks on {layers} cell layers along the cut axis: at most one \
                      rank per layer (use fewer ranks or more cells)"
                 ),
             ));
@@ -92,7 +115,7 @@ impl SlabDecomposition {
                     "grid.cells",
                     layers,
                     format!(
-                        "{ranks} ranks on {layers} cell layers along the last axis give slabs \
+                        "{ranks} ranks on {layers} cell layers along the cut axis give slabs \
                          of {thinnest} layers, thinner than the basis support: ranks {} and {} \
                          would share nodes (use fewer ranks or more cells)",
                         r - 1,
@@ -113,6 +136,7 @@ impl SlabDecomposition {
             })
             .collect();
         Ok(Self {
+            axis: 0,
             cell_layers,
             touched,
             owned,
@@ -120,22 +144,27 @@ impl SlabDecomposition {
         })
     }
 
+    /// The cut axis (0 for a decomposition made by [`Self::from_layer_dofs`]).
+    pub fn axis(&self) -> usize {
+        self.axis
+    }
+
     /// Number of ranks.
     pub fn ranks(&self) -> usize {
         self.cell_layers.len()
     }
 
-    /// Node layers along the last axis.
+    /// Node layers along the cut axis.
     pub fn node_layers(&self) -> usize {
         self.node_layers
     }
 
-    /// The last-axis cell layers of rank `r`.
+    /// The cell layers of rank `r` along the cut axis.
     pub fn cell_layers(&self, r: usize) -> Range<usize> {
         self.cell_layers[r].clone()
     }
 
-    /// The rank that owns last-axis cell layer `layer`.
+    /// The rank that owns cell layer `layer` of the cut axis.
     pub fn owner_of_layer(&self, layer: usize) -> usize {
         self.cell_layers
             .partition_point(|l| l.end <= layer)
@@ -205,7 +234,7 @@ mod tests {
 
     #[test]
     fn refuses_more_ranks_than_layers_and_thin_slabs() {
-        let grid = TensorGrid::new([1.0, 1.0], [8, 4]);
+        let grid = TensorGrid::new([1.0, 1.0], [4, 4]);
         let p2 = TensorBasis::new(grid, |g| BSplineBasis::new(g, 2).unwrap());
         let message = SlabDecomposition::new(&p2, 5).unwrap_err().to_string();
         assert!(
@@ -223,6 +252,23 @@ mod tests {
         assert!(SlabDecomposition::new(&linear, 4).is_ok());
     }
 
+    #[test]
+    fn the_cut_is_along_the_longest_axis() {
+        let wide = TensorGrid::new([2.0, 1.0], [8, 4]);
+        let p2 = TensorBasis::new(wide, |g| BSplineBasis::new(g, 2).unwrap());
+        let slabs = SlabDecomposition::new(&p2, 2).unwrap();
+        assert_eq!((slabs.axis(), slabs.cell_layers(1)), (0, 4..8));
+        assert_eq!(slabs.node_layers(), 10);
+        let message = SlabDecomposition::new(&p2, 9).unwrap_err().to_string();
+        assert!(
+            message.contains("9 ranks on 8 cell layers along axis x"),
+            "{message}"
+        );
+        let cube = TensorGrid::new([1.0; 3], [4, 6, 6]);
+        let linear = TensorBasis::new(cube, LinearBasis::new);
+        assert_eq!(SlabDecomposition::new(&linear, 2).unwrap().axis(), 2);
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         #[test]
@@ -234,7 +280,8 @@ mod tests {
                 SlabDecomposition::new(&TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap()), ranks)
             };
             match slabs {
-                Ok(slabs) => check_invariants(&slabs, layers),
+                // Fewer than 3 layers in y: the cut is along x.
+                Ok(slabs) => check_invariants(&slabs, grid.axes[slabs.axis()].cells),
                 Err(e) => prop_assert!(ranks > 1 && e.to_string().contains("grid.cells"), "{e}"),
             }
         }

@@ -173,7 +173,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             Some(ranks) => {
                 ranks.add_shared(&mut fields.mass, 1)?;
                 ranks.add_shared(fields.force.as_flattened_mut(), D)?;
-                let owned = fields.mass[ranks.owned_nodes()].iter().sum::<f64>();
+                let owned = ranks.sum_over_owned_nodes(|i| fields.mass[i]);
                 ranks.sum(&[owned])?[0]
             }
         };
