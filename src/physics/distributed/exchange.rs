@@ -2,9 +2,9 @@
 //! an in-process implementation ([`LocalRanks`]: one thread per rank) that runs the
 //! distributed step in the ordinary test suite without MPI.
 //!
-//! Two collective operations are enough for the lumped step (`docs/distributed.md`):
+//! Two collective operations are enough for the step (`docs/distributed.md`):
 //! * [`RankExchange::swap_with_neighbours`]: send one buffer to rank `r - 1` and one to
-//!   `r + 1`, receive theirs (shared node layers, migrating particles);
+//!   `r + 1`, receive theirs (shared node and cell layers, migrating particles);
 //! * [`RankExchange::all_gather`]: every rank's short vector on every rank, in rank order
 //!   (global sums folded in rank order are bitwise the same on every rank and for any
 //!   number of threads).

@@ -1,8 +1,9 @@
-//! The 2D / 3D lumped step split over ranks (`docs/distributed.md`).
+//! The 2D / 3D step split over ranks (`docs/distributed.md`).
 //!
-//! The grid's last-axis cell layers are cut into slabs ([`SlabDecomposition`]); each rank
-//! steps the particles of its slab with the ordinary [`super::tensor::TensorStepper`] and
-//! a [`RankContext`] that the stepper calls at three points of a step:
+//! The grid's cell layers along its longest axis are cut into slabs
+//! ([`SlabDecomposition`]); each rank steps the particles of its slab with the ordinary
+//! [`super::tensor::TensorStepper`] and a [`RankContext`] that the stepper calls at three
+//! points of a step:
 //!
 //! ```text
 //! after the mass and force scatter   m_I, f_I += the neighbours' parts on shared node layers
@@ -11,10 +12,13 @@
 //! ```
 //!
 //! and it sums the diagnostics (grid mass and momentum over the node layers each rank
-//! owns, particle momentum, energies, crossings, failures) over ranks in rank order. On a
-//! shared node both ranks add the same two partial sums (`a + b = b + a` in floating
-//! point), so every rank sees the same nodal values. The partial sums themselves are
-//! grouped by rank, so results agree with one process to round-off, not bit for bit.
+//! owns, particle momentum, energies, crossings, failures) over ranks in rank order. TLS
+//! sees the ranks through [`crate::mapping::tensor::SlabCells`] (its own cells, cell
+//! totals across slab faces, the material extent), and the consistent mass is solved by
+//! [`DistributedCg`]. On a shared node both ranks add the same two partial sums
+//! (`a + b = b + a` in floating point), so every rank sees the same nodal values. The
+//! partial sums themselves are grouped by rank, so results agree with one process to
+//! round-off, not bit for bit.
 //!
 //! Each rank keeps the whole grid's node arrays (only its touched layers are ever
 //! non-zero); the lumped mass, the velocity division and the constraints run over all of
