@@ -1,5 +1,8 @@
 //! Compressed sparse row matrices: the one sparse format of the crate.
 
+/// Rows per rayon task of the parallel products.
+const PAR_BLOCK: usize = 4096;
+
 /// A square or rectangular matrix in CSR form.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CsrMatrix {
@@ -169,17 +172,21 @@ impl CsrMatrix {
     /// in the same order as by [`CsrMatrix::mul_vec`], so the result is bitwise the same
     /// for any thread count.
     pub fn par_mul_vec(&self, x: &[f64], y: &mut [f64]) {
-        use rayon::prelude::*;
-        const BLOCK: usize = 4096;
-        if self.rows < 2 * BLOCK {
+        if self.rows < 2 * PAR_BLOCK {
             self.mul_vec(x, y);
             return;
         }
-        y[..self.rows]
-            .par_chunks_mut(BLOCK)
+        self.par_mul_vec_rows(x, &mut y[..self.rows], 0);
+    }
+
+    /// `y_i = (A x)_{first + i}` for the rows `first..first + y.len()`, in fixed blocks
+    /// over the rayon pool (each row summed as by [`CsrMatrix::mul_vec`]).
+    pub fn par_mul_vec_rows(&self, x: &[f64], y: &mut [f64], first: usize) {
+        use rayon::prelude::*;
+        y.par_chunks_mut(PAR_BLOCK)
             .enumerate()
             .for_each(|(block, y_block)| {
-                let first = block * BLOCK;
+                let first = first + block * PAR_BLOCK;
                 for (offset, yi) in y_block.iter_mut().enumerate() {
                     let range = self.row_start[first + offset]..self.row_start[first + offset + 1];
                     *yi = self.col_index[range.clone()]

@@ -17,12 +17,17 @@
 use super::RankContext;
 use crate::error::{Error, Result};
 use crate::linalg::{check_dimensions, CsrMatrix, LinearSolver, SolveStats};
+use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::Arc;
 
 /// CG (`"cg"`) or Jacobi-preconditioned CG (`"pcg"`) over ranks; stops when
 /// `||r|| / ||b|| < tolerance` (norms over all ranks' owned nodes).
 pub struct DistributedCg {
     ranks: Arc<RankContext>,
+    /// The rank's touched nodes: the only rows it multiplies and entries it updates
+    /// (elsewhere every vector of the iteration stays 0).
+    touched: Vec<Range<usize>>,
     jacobi: bool,
     tolerance: f64,
     max_iterations: usize,
@@ -43,6 +48,7 @@ impl DistributedCg {
         max_iterations: usize,
     ) -> Self {
         Self {
+            touched: ranks.touched_nodes().collect(),
             ranks,
             jacobi,
             tolerance,
@@ -89,20 +95,48 @@ impl DistributedCg {
         Ok(())
     }
 
-    /// `q = A d`, completed on the shared node layers.
+    /// `q = A d` on the touched rows (the others stay 0), completed on the shared node
+    /// layers. One run (a cut along the last axis) is split in row blocks over the pool;
+    /// many short runs (a strided cut) go one run per task.
     fn multiply(&self, a: &CsrMatrix, d: &[f64], q: &mut [f64]) -> Result<()> {
-        a.par_mul_vec(d, q);
+        match self.touched.as_slice() {
+            [run] => a.par_mul_vec_rows(d, &mut q[run.clone()], run.start),
+            runs => {
+                let mut pieces = Vec::with_capacity(runs.len());
+                let mut rest = &mut q[..];
+                let mut offset = 0;
+                for run in runs {
+                    let (_, tail) = rest.split_at_mut(run.start - offset);
+                    let (piece, tail) = tail.split_at_mut(run.len());
+                    pieces.push((run.start, piece));
+                    rest = tail;
+                    offset = run.end;
+                }
+                pieces.into_par_iter().for_each(|(first, piece)| {
+                    for (offset, qi) in piece.iter_mut().enumerate() {
+                        let row = a.row_start[first + offset]..a.row_start[first + offset + 1];
+                        *qi = a.col_index[row.clone()]
+                            .iter()
+                            .zip(&a.values[row])
+                            .map(|(&j, &v)| v * d[j])
+                            .sum();
+                    }
+                });
+            }
+        }
         self.ranks.add_shared(q, 1)
     }
 
     fn precondition(&mut self) {
         let (r, z) = (&self.residual, &mut self.preconditioned);
-        if self.jacobi {
-            for ((zi, ri), di) in z.iter_mut().zip(r).zip(&self.inverse_diagonal) {
-                *zi = ri * di;
+        for run in &self.touched {
+            if self.jacobi {
+                for i in run.clone() {
+                    z[i] = r[i] * self.inverse_diagonal[i];
+                }
+            } else {
+                z[run.clone()].copy_from_slice(&r[run.clone()]);
             }
-        } else {
-            z.copy_from_slice(r);
         }
     }
 
@@ -132,6 +166,7 @@ impl DistributedCg {
         }
         let mut product = std::mem::take(&mut self.product);
         self.multiply(a, x, &mut product)?;
+        // Outside the touched nodes b, x and every vector stay 0.
         for ((r, bi), q) in self.residual.iter_mut().zip(b).zip(&product) {
             *r = bi - q;
         }
@@ -160,9 +195,11 @@ impl DistributedCg {
                     )));
                 }
                 let alpha = rz / dq;
-                for i in 0..n {
-                    x[i] += alpha * self.direction[i];
-                    self.residual[i] -= alpha * product[i];
+                for run in &self.touched {
+                    for i in run.clone() {
+                        x[i] += alpha * self.direction[i];
+                        self.residual[i] -= alpha * product[i];
+                    }
                 }
                 self.precondition();
                 let [rr, rz_new] = self.dots([
@@ -178,8 +215,10 @@ impl DistributedCg {
                 }
                 let beta = rz_new / rz;
                 rz = rz_new;
-                for (d, z) in self.direction.iter_mut().zip(&self.preconditioned) {
-                    *d = z + beta * *d;
+                for run in &self.touched {
+                    for i in run.clone() {
+                        self.direction[i] = self.preconditioned[i] + beta * self.direction[i];
+                    }
                 }
             }
             Err(self.failure(format!(

@@ -161,6 +161,12 @@ impl RankContext {
         self.nodes.runs(self.slabs.owned_node_layers(self.rank()))
     }
 
+    /// The flat node indices this rank's particles can touch, as contiguous runs in
+    /// increasing order: outside them every node value of the rank is 0.
+    pub fn touched_nodes(&self) -> impl Iterator<Item = Range<usize>> + '_ {
+        self.nodes.runs(self.slabs.touched_node_layers(self.rank()))
+    }
+
     /// `sum_i value(i)` over this rank's owned nodes, in index order.
     pub fn sum_over_owned_nodes(&self, value: impl Fn(usize) -> f64) -> f64 {
         self.owned_nodes().flatten().map(value).sum()
