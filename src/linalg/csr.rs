@@ -102,12 +102,7 @@ impl CsrMatrix {
     /// `y = A x`.
     pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
         for (i, yi) in y.iter_mut().enumerate().take(self.rows) {
-            let range = self.row_start[i]..self.row_start[i + 1];
-            *yi = self.col_index[range.clone()]
-                .iter()
-                .zip(&self.values[range])
-                .map(|(&j, &a)| a * x[j])
-                .sum();
+            *yi = self.row_times(i, x);
         }
     }
 
@@ -188,14 +183,20 @@ impl CsrMatrix {
             .for_each(|(block, y_block)| {
                 let first = first + block * PAR_BLOCK;
                 for (offset, yi) in y_block.iter_mut().enumerate() {
-                    let range = self.row_start[first + offset]..self.row_start[first + offset + 1];
-                    *yi = self.col_index[range.clone()]
-                        .iter()
-                        .zip(&self.values[range])
-                        .map(|(&j, &a)| a * x[j])
-                        .sum();
+                    *yi = self.row_times(first + offset, x);
                 }
             });
+    }
+
+    /// `(A x)_i`, the row's products summed in storage order (as [`CsrMatrix::mul_vec`]).
+    #[inline]
+    pub fn row_times(&self, i: usize, x: &[f64]) -> f64 {
+        let range = self.row_start[i]..self.row_start[i + 1];
+        self.col_index[range.clone()]
+            .iter()
+            .zip(&self.values[range])
+            .map(|(&j, &a)| a * x[j])
+            .sum()
     }
 
     /// `y = A^T x`.

@@ -114,12 +114,7 @@ impl DistributedCg {
                 }
                 pieces.into_par_iter().for_each(|(first, piece)| {
                     for (offset, qi) in piece.iter_mut().enumerate() {
-                        let row = a.row_start[first + offset]..a.row_start[first + offset + 1];
-                        *qi = a.col_index[row.clone()]
-                            .iter()
-                            .zip(&a.values[row])
-                            .map(|(&j, &v)| v * d[j])
-                            .sum();
+                        *qi = a.row_times(first + offset, d);
                     }
                 });
             }
