@@ -1016,6 +1016,21 @@ mod tests {
     use proptest::prelude::*;
 
     /// Particles of volume `volume` at `x` (2D) with velocities and stresses from `seed`.
+    /// Mass and force of `p` (no body force) on fresh grid fields.
+    pub(super) fn map_at_rest<B: Basis>(
+        mapping: &mut TensorTlsMapping<2>,
+        basis: &TensorBasis<2, B>,
+        p: &TensorParticles<2>,
+        start: &[usize],
+    ) -> TensorGridFields<2> {
+        let mut fields = TensorGridFields::new(basis.num_dofs());
+        let body = TensorBody::Uniform([0.0; 2]);
+        mapping
+            .map_mass_and_force(basis, p, start, body, &mut fields)
+            .unwrap();
+        fields
+    }
+
     fn particles(x: [Vec<f64>; 2], grid: &TensorGrid<2>, seed: &[f64]) -> TensorParticles<2> {
         let n = x[0].len();
         let mut p =
@@ -1040,16 +1055,7 @@ mod tests {
         let (mut start, mut order) = (Vec::new(), Vec::new());
         p.sort_by_cell(basis.grid.num_cells(), &mut start, &mut order);
         let mut mapping = TensorTlsMapping::new(&basis, 4, totals, [0.02, 0.02], domain).unwrap();
-        let mut fields = TensorGridFields::new(basis.num_dofs());
-        mapping
-            .map_mass_and_force(
-                &basis,
-                &p,
-                &start,
-                TensorBody::Uniform([0.0; 2]),
-                &mut fields,
-            )
-            .unwrap();
+        let mut fields = map_at_rest(&mut mapping, &basis, &p, &start);
         mapping
             .map_momentum(&basis, &p, &start, &mut fields)
             .unwrap();
@@ -1142,6 +1148,7 @@ mod tests {
 
 #[cfg(test)]
 mod consistent_tests {
+    use super::tests::map_at_rest;
     use super::*;
     use crate::grid::BSplineBasis;
 
@@ -1168,16 +1175,7 @@ mod consistent_tests {
                 .unwrap()
                 .with_consistent_mass(&basis)
                 .unwrap();
-        let mut fields = TensorGridFields::new(basis.num_dofs());
-        mapping
-            .map_mass_and_force(
-                &basis,
-                &p,
-                &start,
-                TensorBody::Uniform([0.0; 2]),
-                &mut fields,
-            )
-            .unwrap();
+        let fields = map_at_rest(&mut mapping, &basis, &p, &start);
         let m = mapping.consistent_mass().unwrap();
         let dense = m.to_dense();
         let largest = fields.mass.iter().copied().fold(0.0, f64::max);

@@ -231,6 +231,22 @@ impl RankContext {
         self.timed(|| self.exchange.sum_over_ranks(local))
     }
 
+    /// `(sum_r summand_r, max_r maximand_r)` in one exchange, the sum folded in rank order
+    /// (the bits of [`Self::sum`]).
+    pub fn sum_and_max(&self, summand: f64, maximand: f64) -> Result<(f64, f64)> {
+        let all = self.timed(|| self.exchange.all_gather(&[summand, maximand]))?;
+        let mut total = (0.0, f64::NEG_INFINITY);
+        for part in &all {
+            let [s, m] = part[..] else {
+                return Err(exchange_error(
+                    "ranks gathered vectors of different lengths",
+                ));
+            };
+            total = (total.0 + s, total.1.max(m));
+        }
+        Ok(total)
+    }
+
     /// Whether any rank had `failed` (every rank must call this in the same step).
     pub fn any_failed(&self, failed: bool) -> Result<bool> {
         Ok(self.sum(&[f64::from(u8::from(failed))])?[0] > 0.0)

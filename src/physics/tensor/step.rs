@@ -28,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::grid::shape_cache::with_shape_source;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, EvaluateTensor, TensorBasis, TensorShape, TensorShapeSource};
-use crate::mapping::tensor::{SlabCells, TensorMapping};
+use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::TensorParticles;
@@ -168,13 +168,18 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         // 1. Mass and force.
         self.mapping
             .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields)?;
-        let grid_mass = match &self.ranks {
-            None => fields.mass.iter().sum::<f64>(),
+        // The largest nodal mass sets the consistent mass's small-mass threshold.
+        let largest_of = |mass: &[f64]| match self.mass_solve {
+            Some(_) => mass.iter().copied().fold(0.0, f64::max),
+            None => 0.0,
+        };
+        let (grid_mass, largest_mass) = match &self.ranks {
+            None => (fields.mass.iter().sum::<f64>(), largest_of(&fields.mass)),
             Some(ranks) => {
                 ranks.add_shared(&mut fields.mass, 1)?;
                 ranks.add_shared(fields.force.as_flattened_mut(), D)?;
                 let owned = ranks.sum_over_owned_nodes(|i| fields.mass[i]);
-                ranks.sum(&[owned])?[0]
+                ranks.sum_and_max(owned, largest_of(&fields.mass))?
             }
         };
         let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
@@ -194,13 +199,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         self.timings.mass_and_force_seconds += clock.lap();
         if let (Some(solve), Some(matrix)) = (&mut self.mass_solve, self.mapping.consistent_mass())
         {
-            let mut largest = fields.mass.iter().copied().fold(0.0, f64::max);
-            if let Some(ranks) = &self.ranks {
-                let mut negated = [-largest];
-                ranks.min_over_ranks(&mut negated)?;
-                largest = -negated[0];
-            }
-            solve.prepare(&fields.mass, largest, matrix);
+            solve.prepare(&fields.mass, largest_mass, matrix);
         }
         let (consistent_acceleration, consistent_velocity) = match &self.mass_solve {
             Some(s) => (
