@@ -94,7 +94,8 @@ pub fn build_simulation(
                     .ok_or_else(|| {
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                     })?
-                    .with_adjoint(method.strain(parts.two_phase.is_some()) == StrainKind::Adjoint);
+                    .with_adjoint(method.strain(parts.two_phase.is_some()) == StrainKind::Adjoint)
+                    .with_conservative_degree(method.conservative_degree(1));
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

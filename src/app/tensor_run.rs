@@ -188,7 +188,8 @@ impl Parts<'_> {
                     )
                     .ok_or_else(|| {
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
-                    })?;
+                    })?
+                    .with_conservative_degree(method.conservative_degree(D));
                     let acceleration = tensor_acceleration_mass(method);
                     if acceleration == MassKind::Consistent || method.mass == MassKind::Consistent {
                         let mapping = mapping.with_consistent_mass(&basis).ok_or_else(|| {

@@ -129,7 +129,11 @@ impl Scenario {
                 format!("only used by a reconstruction ({reconstruction})"),
             ),
             (
-                &["method.degenerate_cells", "method.cell_totals"],
+                &[
+                    "method.degenerate_cells",
+                    "method.cell_totals",
+                    "method.conservative_degree",
+                ],
                 method.reconstruction != ReconstructionKind::Tls,
                 only_tls,
             ),

@@ -159,6 +159,36 @@ end = 1.9e-6
     }
 
     #[test]
+    fn the_conservative_degree_defaults_by_dimension_and_is_checked() {
+        let with = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            from_str(BAR, "bar", &sets).and_then(|s| s.validate().map(|()| s))
+        };
+        let tls = with(&["method.reconstruction=tls"]).unwrap();
+        assert_eq!(
+            (
+                tls.method.conservative_degree(1),
+                tls.method.conservative_degree(2)
+            ),
+            (2, 1)
+        );
+        for degree in 0..=2 {
+            let set = format!("method.conservative_degree={degree}");
+            let s = with(&["method.reconstruction=tls", &set]).unwrap();
+            assert_eq!(s.method.conservative_degree(3), degree);
+        }
+        for value in ["3", "-1", "1.5"] {
+            let set = format!("method.conservative_degree={value}");
+            let err = with(&["method.reconstruction=tls", &set]).unwrap_err();
+            assert!(
+                err.to_string().contains("method.conservative_degree"),
+                "{value}: {err}"
+            );
+            assert!(err.is_input_error());
+        }
+    }
+
+    #[test]
     fn subpoints_need_the_direct_mapping() {
         let with = |sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

@@ -463,6 +463,10 @@ pub struct MethodConfig {
     /// Default: see [`MethodConfig::strain`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strain: Option<StrainKind>,
+    /// Highest total degree (0..=2) of the conservative TLS fits (density, momentum).
+    /// Default: see [`MethodConfig::conservative_degree`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub conservative_degree: Option<usize>,
 }
 
 /// `method.cell_totals`: how the conserved totals `c_e` (mass, momentum) of the
@@ -552,11 +556,21 @@ impl Default for MethodConfig {
             gauss_points: 0,
             degenerate_cells: DegenerateRemedy::default(),
             strain: None,
+            conservative_degree: None,
         }
     }
 }
 
 impl MethodConfig {
+    /// `method.conservative_degree` if given, else 2 in 1D (the published quadratic fit
+    /// `a_1 + a_2 psi_2 + a_3 psi_3`) and 1 in 2D / 3D (`{1, s_x, s_y[, s_z]}`: a
+    /// conservative quadratic there would add transverse terms `s_a^2 / 2 - 1/6` whose
+    /// particle mean is not their cell mean, see `docs/tls.md`).
+    pub fn conservative_degree(&self, dim: usize) -> usize {
+        self.conservative_degree
+            .unwrap_or(if dim > 1 { 1 } else { 2 })
+    }
+
     /// `method.strain` if given, else `adjoint` for one-phase MLS / IMLS and `gradient`
     /// otherwise (the two-phase step supports `gradient` only).
     pub fn strain(&self, two_phase: bool) -> StrainKind {

@@ -178,6 +178,15 @@ impl Scenario {
                 return Err(Error::invalid("method.strain", "\"adjoint\"", reason));
             }
         }
+        if let Some(degree) = self.method.conservative_degree {
+            if degree > 2 {
+                return Err(Error::invalid(
+                    "method.conservative_degree",
+                    degree,
+                    "the conservative TLS fits are of total degree 0, 1 or 2",
+                ));
+            }
+        }
         // DDMPM sub-points (SPEC §3.3) replace the particle quadrature of the direct
         // mapping; they do not combine with a reconstruction. Any basis accepts them (the
         // published comparison pairs them with `ddmpm`).

@@ -161,6 +161,8 @@ pub struct TensorTlsMapping<const D: usize> {
     /// the material extent is taken over all ranks, and cell totals that a particle's
     /// domain carries across a slab face are completed with the neighbour.
     slab: Option<Arc<dyn SlabCells>>,
+    /// Highest total degree of the conservative fits (`method.conservative_degree`).
+    conservative_degree: usize,
 }
 
 impl<const D: usize> TensorTlsMapping<D> {
@@ -199,7 +201,16 @@ impl<const D: usize> TensorTlsMapping<D> {
             consistent: None,
             assembly_seconds: 0.0,
             slab: None,
+            conservative_degree: MAX_DEGREE,
         })
+    }
+
+    /// Conservative fits (density, momentum, body force) of total degree at most
+    /// `degree` (`method.conservative_degree`; at most 2, the default of [`Self::new`]).
+    /// Stress fits stay of degree 2.
+    pub fn with_conservative_degree(mut self, degree: usize) -> Self {
+        self.conservative_degree = degree.min(MAX_DEGREE);
+        self
     }
 
     /// Also assemble the consistent mass matrix in every
@@ -430,6 +441,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         let components = stress_components::<D>();
         let ns = components.len();
         let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
+        let conservative_degree = self.conservative_degree;
         let rule = &self.rule;
         let counts: RemedyCounts = self
             .stress
@@ -465,7 +477,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                     }
                 }
                 let (full, q_full) = fit_degree(&normal, false, MAX_DEGREE);
-                let (conservative, q_cons) = fit_degree(&normal, true, MAX_DEGREE);
+                let (conservative, q_cons) = fit_degree(&normal, true, conservative_degree);
                 for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
                     *a = full.solve(&normal, rhs, 0.0);
                 }
@@ -481,7 +493,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                     }
                 }
                 let reduced = u64::from(q_full < MAX_DEGREE)
-                    + u64::from(q_cons < MAX_DEGREE) * if body.is_some() { 2 } else { 1 };
+                    + u64::from(q_cons < conservative_degree) * if body.is_some() { 2 } else { 1 };
                 counts.degenerate_fits = reduced;
                 counts.order_reduced_fits = reduced;
                 counts
@@ -509,6 +521,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             q
         })?;
         let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
+        let conservative_degree = self.conservative_degree;
         let counts: RemedyCounts = self
             .vector
             .par_chunks_mut(D)
@@ -530,12 +543,12 @@ impl<const D: usize> TensorTlsMapping<D> {
                         add_rhs::<D>(&mut rhs[a], &t, particles.density(p) * values[a][p]);
                     }
                 }
-                let (conservative, q) = fit_degree(&normal, true, MAX_DEGREE);
+                let (conservative, q) = fit_degree(&normal, true, conservative_degree);
                 let volume = box_volume(&lo[cell], &hi[cell]);
                 for a in 0..D {
                     fits[a] = conservative.solve(&normal, &rhs[a], totals[cell][a] / volume);
                 }
-                let reduced = u64::from(q < MAX_DEGREE);
+                let reduced = u64::from(q < conservative_degree);
                 counts.degenerate_fits = reduced;
                 counts.order_reduced_fits = reduced;
                 counts
@@ -1051,10 +1064,13 @@ mod tests {
         mut p: TensorParticles<2>,
         totals: CellTotals,
         domain: bool,
+        conservative_degree: usize,
     ) -> std::result::Result<(), TestCaseError> {
         let (mut start, mut order) = (Vec::new(), Vec::new());
         p.sort_by_cell(basis.grid.num_cells(), &mut start, &mut order);
-        let mut mapping = TensorTlsMapping::new(&basis, 4, totals, [0.02, 0.02], domain).unwrap();
+        let mut mapping = TensorTlsMapping::new(&basis, 4, totals, [0.02, 0.02], domain)
+            .unwrap()
+            .with_conservative_degree(conservative_degree);
         let mut fields = map_at_rest(&mut mapping, &basis, &p, &start);
         mapping
             .map_momentum(&basis, &p, &start, &mut fields)
@@ -1091,7 +1107,8 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Random layouts with sparse and degenerate cells (1–3 particles, a row of
         /// particles on one line): mass and both momentum components are conserved to
-        /// round-off, masses stay non-negative, nothing is NaN.
+        /// round-off, masses stay non-negative, nothing is NaN (conservative fits of
+        /// degree 0, 1 and 2).
         #[test]
         fn random_and_degenerate_layouts_conserve(
             xs in proptest::collection::vec((0.0f64..1.0, 0.0f64..1.0), 1..40),
@@ -1111,10 +1128,12 @@ mod tests {
                 x[1].push(line_y);
             }
             for totals in [CellTotals::Domains, CellTotals::Centres] {
-                let b = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
-                check(b, particles(x.clone(), &grid, &seed), totals, false)?;
-                check(TensorBasis::new(grid, LinearBasis::new), particles(x.clone(), &grid, &seed), totals, false)?;
-                check(TensorBasis::new(grid, GimpBasis::new), particles(x.clone(), &grid, &seed), totals, true)?;
+                for degree in 0..=2 {
+                    let b = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
+                    check(b, particles(x.clone(), &grid, &seed), totals, false, degree)?;
+                }
+                check(TensorBasis::new(grid, LinearBasis::new), particles(x.clone(), &grid, &seed), totals, false, 1)?;
+                check(TensorBasis::new(grid, GimpBasis::new), particles(x.clone(), &grid, &seed), totals, true, 2)?;
             }
         }
     }

@@ -164,7 +164,32 @@ pub fn solve(
 /// conditioned (order reduction, SPEC §4.1). Returns the coefficients and the number of
 /// terms used. With no usable point the fit is the constant `a_1` (0 for a full fit).
 pub fn solve_reduced(normal: &NormalMatrix, rhs: &[f64; 3], kind: FitKind) -> ([f64; 3], usize) {
-    for terms in (1..=3).rev() {
+    solve_reduced_from(normal, rhs, kind, 3)
+}
+
+/// [`solve_reduced`] starting from `terms` (1..=3) functions instead of 3: the fit of
+/// total degree at most `terms - 1` (`method.conservative_degree`).
+///
+/// ```
+/// use tlsmpm::numerics::taylor::{solve_reduced_from, FitKind, NormalMatrix, TaylorCell};
+/// let cell = TaylorCell::new(0.0, 1.0);
+/// let mut normal = NormalMatrix::default();
+/// let mut rhs = [0.0; 3];
+/// for x in [0.1, 0.4, 0.6, 0.9] {
+///     let psi = cell.psi(x);
+///     normal.add(&psi);
+///     tlsmpm::numerics::taylor::add_rhs(&mut rhs, &psi, x * x);
+/// }
+/// let (a, terms) = solve_reduced_from(&normal, &rhs, FitKind::Conservative(1.0 / 3.0), 2);
+/// assert_eq!((terms, a[2]), (2, 0.0));
+/// ```
+pub fn solve_reduced_from(
+    normal: &NormalMatrix,
+    rhs: &[f64; 3],
+    kind: FitKind,
+    terms: usize,
+) -> ([f64; 3], usize) {
+    for terms in (1..=terms.min(3)).rev() {
         if let Some(a) = solve(normal, rhs, kind, terms) {
             return (a, terms);
         }

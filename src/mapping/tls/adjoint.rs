@@ -38,7 +38,7 @@
 use super::{add_shares, FieldFit, FitContext, FitState, TlsMapping, CELLS_PER_TASK};
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::Basis;
-use crate::numerics::taylor::{solve, solve_reduced, FitKind, NormalMatrix};
+use crate::numerics::taylor::{solve, solve_reduced_from, FitKind, NormalMatrix};
 use crate::particles::Particles;
 use rayon::prelude::*;
 
@@ -71,10 +71,11 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// How a cell's fit was solved: its normal matrix (with any virtual points) and whether
-/// order reduction was allowed.
+/// How a cell's fit was solved: its normal matrix (with any virtual points), the Taylor
+/// functions it starts from and whether order reduction was allowed.
 struct Route {
     normal: NormalMatrix,
+    terms: usize,
     reduced: bool,
 }
 
@@ -84,6 +85,7 @@ impl FitContext<'_> {
     fn route(&self, field: &FieldFit, cell: usize, conservative: bool) -> Option<Route> {
         let mut route = Route {
             normal: self.sums[cell].normal,
+            terms: self.terms(kind(conservative, 0.0)),
             reduced: false,
         };
         match field.state[cell] {
@@ -96,8 +98,13 @@ impl FitContext<'_> {
                         route.normal.add(&self.taylor[cell].psi(face));
                     }
                     // The well-posedness test depends on the matrix only.
-                    route.reduced =
-                        solve(&route.normal, &[0.0; 3], kind(conservative, 0.0), 3).is_none();
+                    route.reduced = solve(
+                        &route.normal,
+                        &[0.0; 3],
+                        kind(conservative, 0.0),
+                        route.terms,
+                    )
+                    .is_none();
                 }
             }
         }
@@ -119,9 +126,9 @@ impl Route {
     fn fit(&self, rhs: &[f64; 3], mean: f64, conservative: bool) -> [f64; 3] {
         let kind = kind(conservative, mean);
         if self.reduced {
-            solve_reduced(&self.normal, rhs, kind).0
+            solve_reduced_from(&self.normal, rhs, kind, self.terms).0
         } else {
-            solve(&self.normal, rhs, kind, 3).unwrap_or([0.0; 3])
+            solve(&self.normal, rhs, kind, self.terms).unwrap_or([0.0; 3])
         }
     }
 
@@ -202,6 +209,7 @@ impl TlsMapping {
             remedy: self.remedy,
             taylor: &self.taylor,
             sums: &self.sums,
+            conservative_terms: self.conservative_terms,
         }
     }
 

@@ -42,7 +42,9 @@ use super::{CellScatter, GridFields, Mapping, RemedyCounts};
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
 use crate::numerics::gauss::GaussRule;
-use crate::numerics::taylor::{add_rhs, solve, solve_reduced, FitKind, NormalMatrix, TaylorCell};
+use crate::numerics::taylor::{
+    add_rhs, solve, solve_reduced_from, FitKind, NormalMatrix, TaylorCell,
+};
 use crate::particles::{CellBins, Particles};
 use rayon::prelude::*;
 
@@ -99,9 +101,16 @@ struct FitContext<'a> {
     remedy: DegenerateRemedy,
     taylor: &'a [TaylorCell],
     sums: &'a [CellSums],
+    /// Taylor functions of the conservative fits (`method.conservative_degree + 1`).
+    conservative_terms: usize,
 }
 
 impl FitContext<'_> {
+    /// Taylor functions a fit of `kind` starts from: 3 for a full fit.
+    fn terms(&self, kind: FitKind) -> usize {
+        terms_of(kind, self.conservative_terms)
+    }
+
     /// Repair `cell` of `field` (whose plain fit was refused): virtual points from the
     /// fitted neighbours at the shared faces, else order reduction.
     fn repair(
@@ -123,13 +132,16 @@ impl FitContext<'_> {
                 normal.add(&psi);
                 add_rhs(&mut rhs, &psi, value);
             }
-            if let Some(a) = solve(&normal, &rhs, kind, 3) {
+            if let Some(a) = solve(&normal, &rhs, kind, self.terms(kind)) {
                 counts.virtual_point_fits = 1;
                 return (a, counts);
             }
         }
         counts.order_reduced_fits = 1;
-        (solve_reduced(&normal, &rhs, kind).0, counts)
+        (
+            solve_reduced_from(&normal, &rhs, kind, self.terms(kind)).0,
+            counts,
+        )
     }
 
     /// The virtual points a repair of `cell` takes from its fitted neighbours: `(neighbour,
@@ -177,19 +189,31 @@ impl FitContext<'_> {
     }
 }
 
-/// The plain fit of one cell: its state and coefficients (the constant `a_1` for a refused
-/// conservative fit, 0 for a refused full fit, until repaired).
+/// Taylor functions a fit of `kind` starts from: 3 for a full fit, `conservative_terms`
+/// for a conservative one.
+#[inline]
+fn terms_of(kind: FitKind, conservative_terms: usize) -> usize {
+    match kind {
+        FitKind::Full => 3,
+        FitKind::Conservative(_) => conservative_terms,
+    }
+}
+
+/// The plain fit of one cell on its first `terms` Taylor functions: its state and
+/// coefficients (the constant `a_1` for a refused conservative fit, 0 for a refused full
+/// fit, until repaired).
 #[inline]
 fn plain_fit(
     active: bool,
     normal: &NormalMatrix,
     rhs: &[f64; 3],
     kind: FitKind,
+    terms: usize,
 ) -> (FitState, [f64; 3]) {
     if !active {
         return (FitState::Inactive, [0.0; 3]);
     }
-    match solve(normal, rhs, kind, 3) {
+    match solve(normal, rhs, kind, terms) {
         Some(a) => (FitState::Fitted, a),
         None => {
             let a1 = match kind {
@@ -260,6 +284,9 @@ pub struct TlsMapping {
     momentum: FieldFit,
     remedies: RemedyCounts,
     scatter: CellScatter,
+    /// Taylor functions of the conservative fits of density and momentum:
+    /// `method.conservative_degree + 1` (3, the published quadratic fit, by default).
+    conservative_terms: usize,
     /// `method.strain = "adjoint"`: the strain and particle acceleration adjoint to the
     /// mapping's internal force and momentum ([`adjoint`]).
     adjoint: Option<adjoint::AdjointScratch>,
@@ -293,8 +320,18 @@ impl TlsMapping {
             momentum: FieldFit::new(cells),
             remedies: RemedyCounts::default(),
             scatter: CellScatter::default(),
+            conservative_terms: 3,
             adjoint: None,
         })
+    }
+
+    /// Conservative fits (density, momentum) of total degree at most `degree` (0..=2,
+    /// `method.conservative_degree`; larger values are taken as 2): 1 fits
+    /// `a_1 + a_2 psi_2`, the degree of the 2D/3D default. Full fits (stress) stay
+    /// quadratic.
+    pub fn with_conservative_degree(mut self, degree: usize) -> Self {
+        self.conservative_terms = degree.min(2) + 1;
+        self
     }
 
     /// With `adjoint`, the particle strain increments and accelerations are the adjoints
@@ -386,6 +423,7 @@ impl Mapping for TlsMapping {
             });
         // Pass 2: plain fits of stress and density, density limiter.
         let (taylor, sums, points) = (&self.taylor, &self.sums, &self.points);
+        let conservative_terms = self.conservative_terms;
         let density_kind = |cell: usize| {
             FitKind::Conservative(cell_total(sums, cell, |s| s.mass_shares) / domains.length(cell))
         };
@@ -403,9 +441,14 @@ impl Mapping for TlsMapping {
                     let active = domains.is_active(cell);
                     let s = &sums[cell];
                     (*stress_state, *stress_a) =
-                        plain_fit(active, &s.normal, &s.stress_rhs, FitKind::Full);
-                    (*density_state, *density_a) =
-                        plain_fit(active, &s.normal, &s.density_rhs, density_kind(cell));
+                        plain_fit(active, &s.normal, &s.stress_rhs, FitKind::Full, 3);
+                    (*density_state, *density_a) = plain_fit(
+                        active,
+                        &s.normal,
+                        &s.density_rhs,
+                        density_kind(cell),
+                        conservative_terms,
+                    );
                     if *density_state == FitState::Fitted {
                         limit_density(
                             &taylor[cell],
@@ -430,6 +473,7 @@ impl Mapping for TlsMapping {
             remedy: self.remedy,
             taylor,
             sums,
+            conservative_terms: self.conservative_terms,
         };
         counts += context.repair_all(
             &mut self.stress,
@@ -501,6 +545,7 @@ impl Mapping for TlsMapping {
             });
         // Pass 2: plain fits; pass 3: repairs.
         let sums = &self.sums;
+        let conservative_terms = self.conservative_terms;
         let kind = |cell: usize| {
             FitKind::Conservative(
                 cell_total(sums, cell, |s| s.momentum_shares) / domains.length(cell),
@@ -519,6 +564,7 @@ impl Mapping for TlsMapping {
                     &sums[cell].normal,
                     &sums[cell].momentum_rhs,
                     kind(cell),
+                    conservative_terms,
                 );
             });
         let context = FitContext {
@@ -526,6 +572,7 @@ impl Mapping for TlsMapping {
             remedy: self.remedy,
             taylor,
             sums,
+            conservative_terms: self.conservative_terms,
         };
         self.remedies += context.repair_all(
             &mut self.momentum,

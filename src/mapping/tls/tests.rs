@@ -80,30 +80,38 @@ fn check_conservation<B: Basis>(
             DegenerateRemedy::VirtualPoints,
             DegenerateRemedy::OrderReduction,
         ] {
-            let mut mapping = TlsMapping::new(grid, 4, remedy, totals_rule).unwrap();
-            let ([m_grid, m_matrix, p_grid], [m, p, scale]) =
-                totals(basis, &mut mapping, particles, bins);
-            prop_assert!(
-                (m_grid - m).abs() <= 1e-13 * m,
-                "{:?} mass {} vs {}",
-                totals_rule,
-                m_grid,
-                m
-            );
-            prop_assert!(
-                (m_matrix - m).abs() <= 1e-13 * m,
-                "{:?} M^C mass {} vs {}",
-                totals_rule,
-                m_matrix,
-                m
-            );
-            prop_assert!(
-                (p_grid - p).abs() <= 1e-13 * scale,
-                "{:?} momentum {} vs {}",
-                totals_rule,
-                p_grid,
-                p
-            );
+            for degree in 0..=2 {
+                let mut mapping = TlsMapping::new(grid, 4, remedy, totals_rule)
+                    .unwrap()
+                    .with_conservative_degree(degree);
+                let ([m_grid, m_matrix, p_grid], [m, p, scale]) =
+                    totals(basis, &mut mapping, particles, bins);
+                // The conservative fits stay within their degree.
+                for a in mapping.density().iter().chain(mapping.momentum()) {
+                    prop_assert!(a[degree + 1..].iter().all(|&c| c == 0.0), "{degree}: {a:?}");
+                }
+                prop_assert!(
+                    (m_grid - m).abs() <= 1e-13 * m,
+                    "{:?} mass {} vs {}",
+                    totals_rule,
+                    m_grid,
+                    m
+                );
+                prop_assert!(
+                    (m_matrix - m).abs() <= 1e-13 * m,
+                    "{:?} M^C mass {} vs {}",
+                    totals_rule,
+                    m_matrix,
+                    m
+                );
+                prop_assert!(
+                    (p_grid - p).abs() <= 1e-13 * scale,
+                    "{:?} momentum {} vs {}",
+                    totals_rule,
+                    p_grid,
+                    p
+                );
+            }
         }
     }
     Ok(())
@@ -113,7 +121,8 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
     /// Mass (lumped and consistent) and momentum mapped by TLS equal the particle
     /// totals to round-off for random layouts with 3+ or 1–2 particles per cell, every
-    /// basis, both cell-total rules and both degenerate-cell remedies.
+    /// basis, both cell-total rules, both degenerate-cell remedies and conservative fits of
+    /// degree 0, 1 and 2.
     #[test]
     fn mapping_conserves_mass_and_momentum(cells in 2usize..10, sparse in any::<bool>(),
                                            counts in prop::collection::vec(0usize..6, 10),
