@@ -261,14 +261,15 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(32))]
     /// The adjoint strain is work-conjugate to the TLS internal force and the adjoint
     /// acceleration to the TLS momentum, to round-off, for random layouts with empty,
-    /// one-particle and full cells, linear and quadratic B-spline bases, both remedies and
-    /// both cell-total rules.
+    /// one-particle and full cells, linear and quadratic B-spline bases, both remedies,
+    /// both cell-total rules and conservative fits of degree 0, 1 or 2.
     #[test]
     fn adjoint_strain_and_acceleration_are_conjugate(
         counts in prop::collection::vec(0usize..5, 8),
         jitter in prop::collection::vec(0.0f64..1.0, 40),
         velocities in prop::collection::vec(-1.0f64..1.0, 12),
         quadratic in any::<bool>(),
+        degree in 0usize..=2,
     ) {
         let grid = Grid::new(2.0, 8);
         let (mut particles, bins) = layout(&grid, &counts, &jitter);
@@ -277,7 +278,8 @@ proptest! {
             for remedy in [DegenerateRemedy::VirtualPoints, DegenerateRemedy::OrderReduction] {
                 let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
                     .unwrap()
-                    .with_adjoint(true);
+                    .with_adjoint(true)
+                    .with_conservative_degree(degree);
                 let (strain, momentum) = if quadratic {
                     let basis = BSplineBasis::new(grid, 2).unwrap();
                     let v = &velocities[..basis.num_dofs()];
