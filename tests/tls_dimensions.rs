@@ -6,6 +6,7 @@ mod common;
 
 use common::scenario;
 use common::tensor::{bits, cross_dimension_difference, run_1d, run_nd};
+use tlsmpm::app::{self, RunOptions};
 
 /// The extruded column with TLS against the 1D TLS run with the same conservative degree.
 /// 2D / 3D fit density and momentum with `{1, s_x, s_y[, s_z]}` by default
@@ -78,6 +79,40 @@ fn quadratic_conservative_fits_differ_from_1d_by_the_transverse_terms() {
         du > 1e-9 && du < 2e-5 && ds < 2e-5 && dt < 1e-12,
         "2D: {du:e} {ds:e} {dt:e}"
     );
+}
+
+/// `summary.json` states the conservative degree a TLS run used, also when it is the
+/// dimension's default.
+#[test]
+fn the_summary_states_the_conservative_degree_that_ran() {
+    for (sets, degree) in [
+        (&["problem.dim=2"][..], 1),
+        (&["problem.dim=2", "method.conservative_degree=2"][..], 2),
+    ] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut all = vec![
+            "grid.cells=4",
+            "time.end=1e-4",
+            "method.reconstruction=\"tls\"",
+            "output.plots=false",
+        ];
+        all.extend_from_slice(sets);
+        let s = scenario("axis_aligned_mms", &all);
+        let options = RunOptions {
+            out_dir: dir.path().to_path_buf(),
+            threads: Some(1),
+            force: false,
+            stop: None,
+            warnings: Vec::new(),
+            ranks: None,
+        };
+        let summary = app::run(&s, "tls", &options, &mut |_, _| {}).expect("run");
+        assert_eq!(
+            summary.config.method.conservative_degree,
+            Some(degree),
+            "{sets:?}"
+        );
+    }
 }
 
 /// The same TLS through the dimension-generic code with `D = 1` equals the 1D mapping

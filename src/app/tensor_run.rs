@@ -303,17 +303,26 @@ fn run_dim<const D: usize>(
     progress: &mut (dyn FnMut(usize, usize) + Send),
 ) -> Result<Summary> {
     let pool = crate::app::run::thread_pool(options.threads)?;
-    // The consistent mass of a distributed run defaults to Jacobi CG (the 2D / 3D default,
-    // the Kronecker preconditioner, is not local per rank).
-    let distributed_scenario;
-    let scenario = match (&options.ranks, scenario.solver.kind) {
-        (Some(_), None) => {
-            let mut s = scenario.clone();
+    // Defaults that `summary.json`'s `config` states as run: the consistent mass of a
+    // distributed run defaults to Jacobi CG (the 2D / 3D default, the Kronecker
+    // preconditioner, is not local per rank); the degree of the conservative TLS fits
+    // depends on the dimension.
+    let resolved_scenario;
+    let distributed_default = options.ranks.is_some() && scenario.solver.kind.is_none();
+    let tls_default = scenario.method.reconstruction == ReconstructionKind::Tls
+        && scenario.method.conservative_degree.is_none();
+    let scenario = if distributed_default || tls_default {
+        let mut s = scenario.clone();
+        if distributed_default {
             s.solver.kind = Some(SolverKind::Pcg);
-            distributed_scenario = s;
-            &distributed_scenario
         }
-        _ => scenario,
+        if tls_default {
+            s.method.conservative_degree = Some(s.method.conservative_degree(D));
+        }
+        resolved_scenario = s;
+        &resolved_scenario
+    } else {
+        scenario
     };
     let (problem, mut simulation) =
         pool.install(|| build_tensor_simulation::<D>(scenario, options.force))?;
