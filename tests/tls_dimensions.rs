@@ -6,7 +6,27 @@ mod common;
 
 use common::scenario;
 use common::tensor::{bits, cross_dimension_difference, run_1d, run_nd};
-use tlsmpm::app::{self, RunOptions};
+
+/// The TLS column of the cross-dimension checks: 4 particles per cell and axis, so the
+/// quadratic stress fits are well posed in 1D, 2D and 3D; the compacting column has a
+/// moving free surface (partly filled top cells).
+const EXTRUDED_COLUMN: &[&str] = &[
+    "material.model=\"linear\"",
+    "time.end=0.02",
+    "grid.cells=12",
+    "method.basis=\"bspline\"",
+    "method.order=2",
+    "method.reconstruction=\"tls\"",
+    "method.degenerate_cells=\"order_reduction\"",
+];
+
+/// The differences of [`cross_dimension_difference`] between the 1D column with `one`
+/// and the `D`-dimensional column with `many`, both on top of [`EXTRUDED_COLUMN`].
+fn column_difference<const D: usize>(one: &[&str], many: &[&str]) -> (f64, f64, f64) {
+    let one = run_1d("column_compaction", &[EXTRUDED_COLUMN, one].concat());
+    let many = run_nd::<D>("column_compaction", &[EXTRUDED_COLUMN, many].concat(), 2).1;
+    cross_dimension_difference(&one, &many.particles)
+}
 
 /// The extruded column with TLS against the 1D TLS run with the same conservative degree.
 /// 2D / 3D fit density and momentum with `{1, s_x, s_y[, s_z]}` by default
@@ -16,35 +36,17 @@ use tlsmpm::app::{self, RunOptions};
 /// displacement stays at round-off.
 #[test]
 fn extruded_column_with_tls_matches_the_1d_tls_run() {
-    // 4 particles per cell and axis: the quadratic stress fits are well posed in 1D, 2D
-    // and 3D. The compacting column has a moving free surface (partly filled top cells).
-    let sets: &[&str] = &[
-        "material.model=\"linear\"",
-        "time.end=0.02",
-        "grid.cells=12",
-        "method.basis=\"bspline\"",
-        "method.order=2",
-        "method.reconstruction=\"tls\"",
-        "method.degenerate_cells=\"order_reduction\"",
-    ];
-    let mut one_sets = sets.to_vec();
-    one_sets.extend(["particles.per_cell=4", "method.conservative_degree=1"]);
-    let one = run_1d("column_compaction", &one_sets);
-    let mut two_sets = sets.to_vec();
-    two_sets.extend(["particles.per_cell=16", "problem.dim=2"]);
-    let two = run_nd::<2>("column_compaction", &two_sets, 2).1;
-    let (du, ds, dt) = cross_dimension_difference(&one, &two.particles);
+    let one = ["particles.per_cell=4", "method.conservative_degree=1"];
+    let (du, ds, dt) = column_difference::<2>(&one, &["particles.per_cell=16", "problem.dim=2"]);
     assert!(
         du < 1e-12 && ds < 1e-12 && dt < 1e-12,
         "2D: {du:e} {ds:e} {dt:e}"
     );
-    let mut three_sets = sets.to_vec();
-    three_sets.extend(["particles.per_cell=64", "problem.dim=3", "time.end=0.005"]);
-    let mut one_short = one_sets.clone();
-    one_short.push("time.end=0.005");
-    let one = run_1d("column_compaction", &one_short);
-    let three = run_nd::<3>("column_compaction", &three_sets, 2).1;
-    let (du, ds, dt) = cross_dimension_difference(&one, &three.particles);
+    let short = "time.end=0.005";
+    let (du, ds, dt) = column_difference::<3>(
+        &[one[0], one[1], short],
+        &["particles.per_cell=64", "problem.dim=3", short],
+    );
     assert!(
         du < 1e-12 && ds < 1e-12 && dt < 1e-12,
         "3D: {du:e} {ds:e} {dt:e}"
@@ -58,23 +60,11 @@ fn extruded_column_with_tls_matches_the_1d_tls_run() {
 /// 1D fit leaves (`docs/tls.md`). The bound pins the measured 3.4e-6 / 4.7e-6.
 #[test]
 fn quadratic_conservative_fits_differ_from_1d_by_the_transverse_terms() {
-    let sets: &[&str] = &[
-        "material.model=\"linear\"",
-        "time.end=0.02",
-        "grid.cells=12",
-        "method.basis=\"bspline\"",
-        "method.order=2",
-        "method.reconstruction=\"tls\"",
-        "method.degenerate_cells=\"order_reduction\"",
-        "method.conservative_degree=2",
-    ];
-    let mut one_sets = sets.to_vec();
-    one_sets.push("particles.per_cell=4");
-    let one = run_1d("column_compaction", &one_sets);
-    let mut two_sets = sets.to_vec();
-    two_sets.extend(["particles.per_cell=16", "problem.dim=2"]);
-    let two = run_nd::<2>("column_compaction", &two_sets, 2).1;
-    let (du, ds, dt) = cross_dimension_difference(&one, &two.particles);
+    let quadratic = "method.conservative_degree=2";
+    let (du, ds, dt) = column_difference::<2>(
+        &["particles.per_cell=4", quadratic],
+        &["particles.per_cell=16", "problem.dim=2", quadratic],
+    );
     assert!(
         du > 1e-9 && du < 2e-5 && ds < 2e-5 && dt < 1e-12,
         "2D: {du:e} {ds:e} {dt:e}"
@@ -89,24 +79,13 @@ fn the_summary_states_the_conservative_degree_that_ran() {
         (&["problem.dim=2"][..], 1),
         (&["problem.dim=2", "method.conservative_degree=2"][..], 2),
     ] {
-        let dir = tempfile::tempdir().expect("tempdir");
         let mut all = vec![
             "grid.cells=4",
             "time.end=1e-4",
             "method.reconstruction=\"tls\"",
-            "output.plots=false",
         ];
         all.extend_from_slice(sets);
-        let s = scenario("axis_aligned_mms", &all);
-        let options = RunOptions {
-            out_dir: dir.path().to_path_buf(),
-            threads: Some(1),
-            force: false,
-            stop: None,
-            warnings: Vec::new(),
-            ranks: None,
-        };
-        let summary = app::run(&s, "tls", &options, &mut |_, _| {}).expect("run");
+        let summary = common::run(scenario("axis_aligned_mms", &all), Some(1));
         assert_eq!(
             summary.config.method.conservative_degree,
             Some(degree),
