@@ -106,9 +106,39 @@ struct FitContext<'a> {
 }
 
 impl FitContext<'_> {
-    /// Taylor functions a fit of `kind` starts from: 3 for a full fit.
+    /// Taylor functions a fit of `kind` starts from: 3 for a full fit,
+    /// `conservative_terms` for a conservative one.
     fn terms(&self, kind: FitKind) -> usize {
-        terms_of(kind, self.conservative_terms)
+        match kind {
+            FitKind::Full => 3,
+            FitKind::Conservative(_) => self.conservative_terms,
+        }
+    }
+
+    /// The plain fit of one cell on its first [`Self::terms`] Taylor functions: its state
+    /// and coefficients (the constant `a_1` for a refused conservative fit, 0 for a refused
+    /// full fit, until repaired).
+    #[inline]
+    fn plain_fit(
+        &self,
+        active: bool,
+        normal: &NormalMatrix,
+        rhs: &[f64; 3],
+        kind: FitKind,
+    ) -> (FitState, [f64; 3]) {
+        if !active {
+            return (FitState::Inactive, [0.0; 3]);
+        }
+        match solve(normal, rhs, kind, self.terms(kind)) {
+            Some(a) => (FitState::Fitted, a),
+            None => {
+                let a1 = match kind {
+                    FitKind::Full => 0.0,
+                    FitKind::Conservative(a1) => a1,
+                };
+                (FitState::Repaired, [a1, 0.0, 0.0])
+            }
+        }
     }
 
     /// Repair `cell` of `field` (whose plain fit was refused): virtual points from the
@@ -186,42 +216,6 @@ impl FitContext<'_> {
         }
         field.repaired = repaired;
         total
-    }
-}
-
-/// Taylor functions a fit of `kind` starts from: 3 for a full fit, `conservative_terms`
-/// for a conservative one.
-#[inline]
-fn terms_of(kind: FitKind, conservative_terms: usize) -> usize {
-    match kind {
-        FitKind::Full => 3,
-        FitKind::Conservative(_) => conservative_terms,
-    }
-}
-
-/// The plain fit of one cell on its first `terms` Taylor functions: its state and
-/// coefficients (the constant `a_1` for a refused conservative fit, 0 for a refused full
-/// fit, until repaired).
-#[inline]
-fn plain_fit(
-    active: bool,
-    normal: &NormalMatrix,
-    rhs: &[f64; 3],
-    kind: FitKind,
-    terms: usize,
-) -> (FitState, [f64; 3]) {
-    if !active {
-        return (FitState::Inactive, [0.0; 3]);
-    }
-    match solve(normal, rhs, kind, terms) {
-        Some(a) => (FitState::Fitted, a),
-        None => {
-            let a1 = match kind {
-                FitKind::Full => 0.0,
-                FitKind::Conservative(a1) => a1,
-            };
-            (FitState::Repaired, [a1, 0.0, 0.0])
-        }
     }
 }
 
@@ -423,7 +417,13 @@ impl Mapping for TlsMapping {
             });
         // Pass 2: plain fits of stress and density, density limiter.
         let (taylor, sums, points) = (&self.taylor, &self.sums, &self.points);
-        let conservative_terms = self.conservative_terms;
+        let context = FitContext {
+            grid: &self.grid,
+            remedy: self.remedy,
+            taylor,
+            sums,
+            conservative_terms: self.conservative_terms,
+        };
         let density_kind = |cell: usize| {
             FitKind::Conservative(cell_total(sums, cell, |s| s.mass_shares) / domains.length(cell))
         };
@@ -441,14 +441,9 @@ impl Mapping for TlsMapping {
                     let active = domains.is_active(cell);
                     let s = &sums[cell];
                     (*stress_state, *stress_a) =
-                        plain_fit(active, &s.normal, &s.stress_rhs, FitKind::Full, 3);
-                    (*density_state, *density_a) = plain_fit(
-                        active,
-                        &s.normal,
-                        &s.density_rhs,
-                        density_kind(cell),
-                        conservative_terms,
-                    );
+                        context.plain_fit(active, &s.normal, &s.stress_rhs, FitKind::Full);
+                    (*density_state, *density_a) =
+                        context.plain_fit(active, &s.normal, &s.density_rhs, density_kind(cell));
                     if *density_state == FitState::Fitted {
                         limit_density(
                             &taylor[cell],
@@ -467,13 +462,6 @@ impl Mapping for TlsMapping {
         let mut counts = RemedyCounts {
             density_limited_fits: limited,
             ..RemedyCounts::default()
-        };
-        let context = FitContext {
-            grid: &self.grid,
-            remedy: self.remedy,
-            taylor,
-            sums,
-            conservative_terms: self.conservative_terms,
         };
         counts += context.repair_all(
             &mut self.stress,
@@ -545,7 +533,13 @@ impl Mapping for TlsMapping {
             });
         // Pass 2: plain fits; pass 3: repairs.
         let sums = &self.sums;
-        let conservative_terms = self.conservative_terms;
+        let context = FitContext {
+            grid: mesh,
+            remedy: self.remedy,
+            taylor,
+            sums,
+            conservative_terms: self.conservative_terms,
+        };
         let kind = |cell: usize| {
             FitKind::Conservative(
                 cell_total(sums, cell, |s| s.momentum_shares) / domains.length(cell),
@@ -559,21 +553,13 @@ impl Mapping for TlsMapping {
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
             .for_each(|(cell, (a, state))| {
-                (*state, *a) = plain_fit(
+                (*state, *a) = context.plain_fit(
                     domains.is_active(cell),
                     &sums[cell].normal,
                     &sums[cell].momentum_rhs,
                     kind(cell),
-                    conservative_terms,
                 );
             });
-        let context = FitContext {
-            grid: mesh,
-            remedy: self.remedy,
-            taylor,
-            sums,
-            conservative_terms: self.conservative_terms,
-        };
         self.remedies += context.repair_all(
             &mut self.momentum,
             |cell| sums[cell].momentum_rhs,
