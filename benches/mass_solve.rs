@@ -154,7 +154,7 @@ fn run_system(order: usize, cells: usize) -> (CsrMatrix, Vec<f64>, SolverConfig)
         .stepper
         .velocity_system(0)
         .expect("a consistent-mass run has a velocity system");
-    (matrix.clone(), rhs, scenario.solver.clone())
+    (matrix.into_owned(), rhs, scenario.solver.clone())
 }
 
 fn run_matrices(c: &mut Criterion) {

@@ -136,20 +136,82 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         self.prepared = false;
-        self.run(a, b, x)
+        self.run(a, None, b, x)
     }
 
     fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-        self.run(a, b, x)
+        self.run(a, None, b, x)
+    }
+
+    /// CG on the kept DOFs: the residual, the preconditioned residual and every product
+    /// `A d` are projected (`P = diag(keep)`), so the iterates never leave `range(P)` and
+    /// the preconditioner acts as `P M^{-1} P`, symmetric positive definite there.
+    fn restricts(&self) -> bool {
+        true
+    }
+
+    fn solve_restricted(
+        &mut self,
+        a: &CsrMatrix,
+        keep: &[bool],
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<SolveStats> {
+        self.prepared = false;
+        self.run(a, Some(keep), b, x)
+    }
+
+    fn resolve_restricted(
+        &mut self,
+        a: &CsrMatrix,
+        keep: &[bool],
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<SolveStats> {
+        self.run(a, Some(keep), b, x)
+    }
+}
+
+/// `v_i = 0` where `keep[i]` is false (no-op without a restriction).
+fn project(v: &mut [f64], keep: Option<&[bool]>) {
+    if let Some(keep) = keep {
+        for (vi, &k) in v.iter_mut().zip(keep) {
+            if !k {
+                *vi = 0.0;
+            }
+        }
     }
 }
 
 impl<P: Preconditioner> Pcg<P> {
-    /// CG from `x`; the preconditioner is set up unless `prepared` says it already is.
-    fn run(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+    /// CG from `x`, restricted to the DOFs with `keep[i]` when `keep` is given (the others
+    /// are set to 0 and stay there); the preconditioner is set up for `a` unless `prepared`
+    /// says it already is.
+    fn run(
+        &mut self,
+        a: &CsrMatrix,
+        keep: Option<&[bool]>,
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<SolveStats> {
         let n = b.len();
         super::check_dimensions(self.preconditioner.solver_name(), a, b, x)?;
-        let b_norm = dot(b, b).sqrt();
+        if keep.is_some_and(|k| k.len() != n) {
+            return Err(self.failure(format!(
+                "restriction of length {} for a system of {n} DOFs",
+                keep.map_or(0, <[bool]>::len)
+            )));
+        }
+        project(x, keep);
+        let b_norm = match keep {
+            None => dot(b, b).sqrt(),
+            Some(keep) => b
+                .iter()
+                .zip(keep)
+                .map(|(bi, &k)| if k { bi * bi } else { 0.0 })
+                .sum::<f64>()
+                .sqrt(),
+        };
         if b_norm == 0.0 {
             x.fill(0.0);
             return Ok(SolveStats::default());
@@ -162,6 +224,7 @@ impl<P: Preconditioner> Pcg<P> {
         for ((r, bi), q) in self.residual.iter_mut().zip(b).zip(&self.product) {
             *r = bi - q;
         }
+        project(&mut self.residual, keep);
         let mut relative = dot(&self.residual, &self.residual).sqrt() / b_norm;
         if relative < self.tolerance {
             return Ok(SolveStats {
@@ -180,10 +243,12 @@ impl<P: Preconditioner> Pcg<P> {
             &mut self.product,
         );
         self.preconditioner.apply(a, r, z);
+        project(z, keep);
         d.copy_from_slice(z);
         let mut rz = dot(r, z);
         for k in 1..=self.max_iterations {
             a.par_mul_vec(d, q);
+            project(q, keep);
             let dq = dot(d, q);
             if dq.is_nan() || dq <= 0.0 || rz.is_nan() || rz <= 0.0 {
                 let name = self.preconditioner.solver_name();
@@ -208,6 +273,7 @@ impl<P: Preconditioner> Pcg<P> {
                 });
             }
             self.preconditioner.apply(a, r, z);
+            project(z, keep);
             let rz_new = dot(r, z);
             let beta = rz_new / rz;
             rz = rz_new;
@@ -308,6 +374,68 @@ mod tests {
             .map(|(p, q)| (p - q) * (p - q))
             .sum::<f64>();
         assert!(res.sqrt() / (n as f64).sqrt() < 1e-8);
+    }
+
+    /// A symmetric positive definite matrix with non-negative entries (a mass matrix's
+    /// sign pattern), 5-point stencil on an `n x n` grid.
+    fn mass_like(n: usize) -> CsrMatrix {
+        let mut t = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let row = j * n + i;
+                t.push((row, row, 4.0 + 0.1 * (row % 7) as f64));
+                if i + 1 < n {
+                    t.push((row, row + 1, 0.5 + 0.01 * (row % 3) as f64));
+                    t.push((row + 1, row, 0.5 + 0.01 * (row % 3) as f64));
+                }
+                if j + 1 < n {
+                    t.push((row, row + n, 0.3));
+                    t.push((row + n, row, 0.3));
+                }
+            }
+        }
+        CsrMatrix::from_triplets(n * n, n * n, &t)
+    }
+
+    #[test]
+    fn a_restricted_solve_is_the_solve_of_the_constrained_matrix_bit_for_bit() {
+        let n = 9;
+        let a = mass_like(n);
+        // Hold the first column of the grid and a few scattered DOFs.
+        let keep: Vec<bool> = (0..n * n).map(|i| i % n != 0 && i % 11 != 5).collect();
+        let mut constrained = a.clone();
+        constrained.constrain(&keep);
+        let b: Vec<f64> = (0..n * n)
+            .map(|i| {
+                if keep[i] {
+                    (i as f64 * 0.37).cos()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let guess: Vec<f64> = (0..n * n).map(|i| 0.1 * (i as f64).sin()).collect();
+        let mut expected: Vec<f64> = guess
+            .iter()
+            .zip(&keep)
+            .map(|(&g, &k)| if k { g } else { 0.0 })
+            .collect();
+        let mut restricted = guess.clone();
+        let mut separate = JacobiCg::with_preconditioner(Jacobi::default(), 1e-12, 1000);
+        let mut shared = JacobiCg::with_preconditioner(Jacobi::default(), 1e-12, 1000);
+        assert!(shared.restricts());
+        let want = separate.solve(&constrained, &b, &mut expected).unwrap();
+        // The shared solver is set up for the unconstrained matrix first.
+        shared.solve(&a, &b, &mut vec![0.0; n * n]).unwrap();
+        let got = shared
+            .resolve_restricted(&a, &keep, &b, &mut restricted)
+            .unwrap();
+        assert_eq!(got, want);
+        assert_eq!(restricted, expected);
+        assert!(restricted.iter().zip(&keep).all(|(&x, &k)| k || x == 0.0));
+        // A restriction of the wrong length is an error, not a panic.
+        let err = shared.solve_restricted(&a, &keep[1..], &b, &mut restricted);
+        assert!(matches!(err, Err(Error::Solver { .. })));
     }
 
     #[test]

@@ -1,10 +1,8 @@
-//! Linear algebra for mass-matrix solves (SPEC §5): a compressed-sparse-row matrix, the
-//! ([`condition`], SPEC §5.1).
-//! Cholesky of 1D mass matrices, and condition-number estimation by Lanczos
-//! [`LinearSolver`] trait every solver implements, B-spline mass assembly, (preconditioned)
-//! [`LinearSolver`] trait every solver implements, conjugate gradients and the banded
-//! conjugate gradients, p-multigrid, the Kronecker preconditioner, the banded Cholesky of 1D
-//! mass matrices and the sparse Cholesky of any SPD pattern (faer).
+//! Linear algebra for mass-matrix solves (`docs/solvers.md`): a compressed-sparse-row
+//! matrix, the [`LinearSolver`] trait every solver implements, B-spline mass assembly,
+//! (preconditioned) conjugate gradients, p-multigrid, the Kronecker preconditioner, the
+//! banded Cholesky of 1D mass matrices, the sparse Cholesky of any SPD pattern (faer) and
+//! condition-number estimation by Lanczos ([`condition`]).
 //!
 //! Shape of the API (after faer): a solver is built once and then called every step; the
 //! initial content of `x` is the starting guess (warm start from the previous step), and
@@ -58,6 +56,50 @@ pub trait LinearSolver: Send {
     /// scaling) reuse it. The default is [`LinearSolver::solve`].
     fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         self.solve(a, b, x)
+    }
+
+    /// Whether the solver solves restricted systems ([`LinearSolver::solve_restricted`]) with
+    /// the set-up of the unrestricted matrix. Solvers that factor or coarsen the matrix
+    /// itself (`direct`, `banded`, the stand-alone `pmg`) do not: they need the constrained
+    /// matrix ([`CsrMatrix::constrain`]) and a set-up of their own.
+    fn restricts(&self) -> bool {
+        false
+    }
+
+    /// Solve the system of `a` restricted to the DOFs with `keep[i]`, the others held at 0:
+    ///
+    /// ```text
+    /// (P A P + I - P) x = P b,    P = diag(keep),
+    /// ```
+    ///
+    /// the system [`CsrMatrix::constrain`] builds, without the constrained copy: several
+    /// restrictions of one matrix (the velocity components of a step with roller walls, each
+    /// holding its own DOFs) share one set-up for `a`. Where [`LinearSolver::restricts`] is
+    /// false this returns an error naming the solver.
+    fn solve_restricted(
+        &mut self,
+        a: &CsrMatrix,
+        keep: &[bool],
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<SolveStats> {
+        let _ = (a, keep, b, x);
+        Err(crate::error::Error::Solver {
+            solver: self.name().into(),
+            reason: "this solver does not solve restricted systems".into(),
+        })
+    }
+
+    /// [`LinearSolver::solve_restricted`] with the set-up of the previous solve of `a`
+    /// (restricted or not), as [`LinearSolver::resolve`].
+    fn resolve_restricted(
+        &mut self,
+        a: &CsrMatrix,
+        keep: &[bool],
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<SolveStats> {
+        self.solve_restricted(a, keep, b, x)
     }
 }
 

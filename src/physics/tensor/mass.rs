@@ -8,12 +8,21 @@
 //! for every component `c`. A component's eliminated DOFs are the nodes without mass
 //! (`m_I <= 1e-12 max m`) and the nodes whose component `c` a face condition holds (a
 //! roller wall holds only its normal component, so each component has its own set): their
-//! rows and columns are replaced by the identity and their values set to 0. Components
-//! whose eliminated sets are equal (no roller walls, or rollers on no face of their axes)
-//! share one constrained copy of the assembled `M^C` and one solver set-up (factorisation,
-//! preconditioner); a roller wall gives its component a system of its own. The velocity
-//! solve of a step reuses the set-up of the acceleration solve ([`LinearSolver::resolve`]),
-//! and every solve starts from the component's solution of the previous step.
+//! values are 0 and their rows and columns act as those of the identity.
+//!
+//! **One set-up per step.** With a solver that solves restricted systems
+//! ([`LinearSolver::restricts`]: `cg`, `pcg`, `kron`, `pmg_cg`) one copy of the assembled
+//! `M^C` is constrained on the massless nodes only, the solver is set up once for it, and
+//! every component is solved on its own DOFs inside the iteration
+//! (`(P_c M P_c + I - P_c) x = P_c b`, [`LinearSolver::solve_restricted`]): roller walls
+//! cost neither a matrix copy nor a set-up per component. For `cg`, `pcg` and `kron` the
+//! iterates are bitwise those of the separately constrained systems (the projections zero
+//! exactly the entries the identity rows zero). The other solvers (`direct`, `pmg`, and
+//! the distributed CG) need the constrained matrix itself: components whose eliminated
+//! sets are equal share one constrained copy and one set-up, and a roller wall gives its
+//! component a system of its own. Either way the velocity solve of a step reuses the
+//! set-up of the acceleration solve ([`LinearSolver::resolve`]), and every solve starts
+//! from the component's solution of the previous step.
 
 use super::boundary::NodeConstraints;
 use crate::config::MassKind;
@@ -23,6 +32,7 @@ use crate::linalg::{CsrMatrix, LinearSolver};
 use crate::mapping::tensor_direct::TensorGridFields;
 use crate::physics::distributed::{DistributedCg, RankContext};
 use crate::physics::mass::MIN_RELATIVE_MASS;
+use std::borrow::Cow;
 use std::sync::Arc;
 
 /// One component's system.
@@ -44,6 +54,11 @@ pub struct TensorMassSolve<const D: usize> {
     pub acceleration: MassKind,
     pub velocity: MassKind,
     components: Vec<ComponentSystem>,
+    /// Whether the components are solved as restrictions of one matrix constrained on the
+    /// massless nodes only (`mass_kept`), with component 0's solver.
+    restricting: bool,
+    /// The nodes with mass (the kept DOFs of the shared matrix when `restricting`).
+    mass_kept: Vec<bool>,
     held: Vec<[bool; D]>,
     rhs: Vec<f64>,
     name: &'static str,
@@ -82,11 +97,14 @@ impl<const D: usize> TensorMassSolve<D> {
                 })
             })
             .collect::<Result<Vec<_>>>()?;
-        let name = make_solver()?.name();
+        let probe = make_solver()?;
+        let (name, restricting) = (probe.name(), probe.restricts());
         Ok(Self {
             acceleration,
             velocity,
             components,
+            restricting,
+            mass_kept: vec![false; dofs],
             held,
             rhs: vec![0.0; dofs],
             name,
@@ -103,15 +121,27 @@ impl<const D: usize> TensorMassSolve<D> {
     }
 
     /// Component `c`'s constrained matrix of the last step and its kept DOFs (benchmarks
-    /// and diagnostics); `None` before the first step or for `c >= D`.
-    pub fn constrained_system(&self, c: usize) -> Option<(&CsrMatrix, &[bool])> {
+    /// and diagnostics: a copy where the step solved it as a restriction of the shared
+    /// matrix); `None` before the first step or for `c >= D`.
+    pub fn constrained_system(&self, c: usize) -> Option<(Cow<'_, CsrMatrix>, &[bool])> {
         let system = self.components.get(c)?;
         let owner = &self.components[system.shared_with.unwrap_or(c)];
-        Some((owner.matrix.as_ref()?, &owner.keep))
+        let matrix = owner.matrix.as_ref()?;
+        let matrix_kept = if self.restricting {
+            &self.mass_kept
+        } else {
+            &owner.keep
+        };
+        if *matrix_kept == system.keep {
+            return Some((Cow::Borrowed(matrix), &system.keep));
+        }
+        let mut constrained = matrix.clone();
+        constrained.constrain(&system.keep);
+        Some((Cow::Owned(constrained), &system.keep))
     }
 
-    /// The number of distinct constrained systems (matrix copies and solver set-ups) of
-    /// the last step: 1 without roller walls, up to `D` with them.
+    /// The number of distinct matrix copies and solver set-ups of the last step: 1 with a
+    /// restricting solver or without roller walls, up to `D` otherwise.
     pub fn distinct_systems(&self) -> usize {
         self.components
             .iter()
@@ -139,6 +169,7 @@ impl<const D: usize> TensorMassSolve<D> {
             let solver = DistributedCg::new(ranks.clone(), jacobi, self.tolerance, MAX_ITERATIONS);
             system.solver = std::sync::Mutex::new(Box::new(solver));
         }
+        self.restricting = false;
         Ok(())
     }
 
@@ -146,17 +177,29 @@ impl<const D: usize> TensorMassSolve<D> {
     /// largest nodal mass (over all ranks in a distributed run).
     pub fn prepare(&mut self, mass: &[f64], largest: f64, matrix: &CsrMatrix) {
         let threshold = MIN_RELATIVE_MASS * largest;
+        for (kept, &m) in self.mass_kept.iter_mut().zip(mass) {
+            *kept = m > threshold;
+        }
         for c in 0..D {
             let (earlier, rest) = self.components.split_at_mut(c);
             let system = &mut rest[0];
-            for ((keep, &m), held) in system.keep.iter_mut().zip(mass).zip(&self.held) {
-                *keep = m > threshold && !held[c];
+            for ((keep, &kept), held) in system.keep.iter_mut().zip(&self.mass_kept).zip(&self.held)
+            {
+                *keep = kept && !held[c];
             }
             system.solved_this_step = false;
-            system.shared_with = earlier
-                .iter()
-                .position(|e| e.shared_with.is_none() && e.keep == system.keep);
-            if system.shared_with.is_none() {
+            system.shared_with = if self.restricting {
+                (c > 0).then_some(0)
+            } else {
+                earlier
+                    .iter()
+                    .position(|e| e.shared_with.is_none() && e.keep == system.keep)
+            };
+            if self.restricting && c == 0 {
+                let shared = system.matrix.get_or_insert_with(|| matrix.clone());
+                shared.values.copy_from_slice(&matrix.values);
+                shared.constrain(&self.mass_kept);
+            } else if system.shared_with.is_none() {
                 let constrained = system.matrix.get_or_insert_with(|| matrix.clone());
                 constrained.values.copy_from_slice(&matrix.values);
                 constrained.constrain(&system.keep);
@@ -190,37 +233,46 @@ impl<const D: usize> TensorMassSolve<D> {
     }
 
     /// Solve component `c`'s system with right-hand side `b(i)` (0 on eliminated DOFs),
-    /// warm-started from its previous solution, with the matrix and solver it shares.
+    /// warm-started from its previous solution, with the matrix and solver it shares
+    /// (restricted to its DOFs where the solver restricts).
     fn solve(&mut self, c: usize, acceleration: bool, b: impl Fn(usize) -> f64) -> Result<()> {
         let owner = self.components[c].shared_with.unwrap_or(c);
+        let component = &mut self.components[c];
+        let keep = std::mem::take(&mut component.keep);
         let mut x = std::mem::take(if acceleration {
-            &mut self.components[c].acceleration
+            &mut component.acceleration
         } else {
-            &mut self.components[c].velocity
+            &mut component.velocity
         });
-        let system = &mut self.components[owner];
         for (i, r) in self.rhs.iter_mut().enumerate() {
-            *r = if system.keep[i] { b(i) } else { 0.0 };
+            *r = if keep[i] { b(i) } else { 0.0 };
         }
-        for (xi, &keep) in x.iter_mut().zip(&system.keep) {
-            if !keep || !xi.is_finite() {
+        for (xi, &k) in x.iter_mut().zip(&keep) {
+            if !k || !xi.is_finite() {
                 *xi = 0.0;
             }
         }
+        let system = &mut self.components[owner];
         let solver = system
             .solver
             .get_mut()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let stats = match system.matrix.as_ref() {
-            None => Err(Error::Solver {
+        let set_up = system.solved_this_step;
+        let stats = match (system.matrix.as_ref(), self.restricting) {
+            (None, _) => Err(Error::Solver {
                 solver: solver.name().into(),
                 reason: "no consistent mass matrix was assembled".into(),
             }),
-            Some(matrix) if system.solved_this_step => solver.resolve(matrix, &self.rhs, &mut x),
-            Some(matrix) => solver.solve(matrix, &self.rhs, &mut x),
+            (Some(matrix), true) if set_up => {
+                solver.resolve_restricted(matrix, &keep, &self.rhs, &mut x)
+            }
+            (Some(matrix), true) => solver.solve_restricted(matrix, &keep, &self.rhs, &mut x),
+            (Some(matrix), false) if set_up => solver.resolve(matrix, &self.rhs, &mut x),
+            (Some(matrix), false) => solver.solve(matrix, &self.rhs, &mut x),
         };
         system.solved_this_step = true;
         let component = &mut self.components[c];
+        component.keep = keep;
         if acceleration {
             component.acceleration = x;
         } else {
@@ -263,9 +315,68 @@ mod tests {
         }
     }
 
+    /// Jacobi CG that counts its set-ups and can be told not to restrict.
+    struct CountingCg {
+        inner: crate::linalg::JacobiCg,
+        restricts: bool,
+        setups: Arc<AtomicUsize>,
+        resolves: Arc<AtomicUsize>,
+    }
+
+    impl LinearSolver for CountingCg {
+        fn name(&self) -> &'static str {
+            "pcg"
+        }
+        fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+            self.setups.fetch_add(1, Ordering::Relaxed);
+            self.inner.solve(a, b, x)
+        }
+        fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
+            self.resolves.fetch_add(1, Ordering::Relaxed);
+            self.inner.resolve(a, b, x)
+        }
+        fn restricts(&self) -> bool {
+            self.restricts
+        }
+        fn solve_restricted(
+            &mut self,
+            a: &CsrMatrix,
+            keep: &[bool],
+            b: &[f64],
+            x: &mut [f64],
+        ) -> Result<SolveStats> {
+            self.setups.fetch_add(1, Ordering::Relaxed);
+            self.inner.solve_restricted(a, keep, b, x)
+        }
+        fn resolve_restricted(
+            &mut self,
+            a: &CsrMatrix,
+            keep: &[bool],
+            b: &[f64],
+            x: &mut [f64],
+        ) -> Result<SolveStats> {
+            self.resolves.fetch_add(1, Ordering::Relaxed);
+            self.inner.resolve_restricted(a, keep, b, x)
+        }
+    }
+
     /// One step of a 2D system on 5 nodes (tridiagonal `M`), with `held` constraints:
     /// (set-ups, re-solves, distinct systems, velocities).
     fn one_step(held: &[(usize, [bool; 2])]) -> (usize, usize, usize, Vec<[f64; 2]>) {
+        one_step_with(held, |setups, resolves| {
+            Box::new(Counting {
+                inner: DirectCholesky::new(),
+                setups,
+                resolves,
+            })
+        })
+    }
+
+    /// [`one_step`] with the solvers of `make(setups, resolves)`.
+    fn one_step_with(
+        held: &[(usize, [bool; 2])],
+        make: impl Fn(Arc<AtomicUsize>, Arc<AtomicUsize>) -> Box<dyn LinearSolver>,
+    ) -> (usize, usize, usize, Vec<[f64; 2]>) {
         let n = 5;
         let mut triplets = Vec::new();
         for i in 0..n {
@@ -287,13 +398,7 @@ mod tests {
             n,
             &constraints,
             1e-12,
-            || {
-                Ok(Box::new(Counting {
-                    inner: DirectCholesky::new(),
-                    setups: setups.clone(),
-                    resolves: resolves.clone(),
-                }))
-            },
+            || Ok(make(setups.clone(), resolves.clone())),
         )
         .unwrap();
         let mut fields = TensorGridFields::<2>::new(n);
@@ -330,6 +435,39 @@ mod tests {
         for i in 0..5 {
             assert!((roller[i][1] - free[i][1]).abs() < 1e-14);
             assert!((roller[i][0] - fixed[i][0]).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn a_restricting_solver_serves_every_component_with_one_set_up() {
+        let cg = |restricts: bool| {
+            move |setups, resolves| -> Box<dyn LinearSolver> {
+                Box::new(CountingCg {
+                    inner: crate::linalg::JacobiCg::with_preconditioner(
+                        crate::linalg::Jacobi::default(),
+                        1e-13,
+                        100,
+                    ),
+                    restricts,
+                    setups,
+                    resolves,
+                })
+            }
+        };
+        // A roller at node 0 (component 0) and one at node 4 (component 1).
+        let rollers = [(0, [true, false]), (4, [false, true])];
+        let (setups, resolves, distinct, shared) = one_step_with(&rollers, cg(true));
+        assert_eq!((setups, resolves, distinct), (1, 3, 1));
+        let (setups, resolves, distinct, separate) = one_step_with(&rollers, cg(false));
+        assert_eq!((setups, resolves, distinct), (2, 2, 2));
+        // The restricted solves are the solves of the constrained copies, bit for bit.
+        assert_eq!(shared, separate);
+        assert_eq!((shared[0][0], shared[4][1]), (0.0, 0.0));
+        let (_, _, _, direct) = one_step(&rollers);
+        for (s, d) in shared.iter().zip(&direct) {
+            for c in 0..2 {
+                assert!((s[c] - d[c]).abs() < 1e-12, "{s:?} {d:?}");
+            }
         }
     }
 }

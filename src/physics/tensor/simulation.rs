@@ -20,6 +20,7 @@ use crate::particles::TensorParticles;
 use crate::physics::distributed::RankExchange;
 use crate::physics::{HistoryRow, SolverTotals};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Steps between recomputations of an automatic time step.
 pub const AUTO_DT_EVERY: usize = 10;
@@ -59,7 +60,7 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
     /// The velocity system `M^C v_c = p_c` of component `c` at the last step: the
     /// constrained consistent mass and the grid momentum (0 on eliminated DOFs). `None`
     /// with a lumped mass, before the first step or for `c >= D`.
-    fn velocity_system(&self, c: usize) -> Option<(&CsrMatrix, Vec<f64>)>;
+    fn velocity_system(&self, c: usize) -> Option<(Cow<'_, CsrMatrix>, Vec<f64>)>;
     /// Make this stepper one rank of a distributed run
     /// ([`TensorStepper::distribute`]).
     fn distribute(
@@ -114,7 +115,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
     fn timings(&self) -> StepTimings {
         TensorStepper::timings(self)
     }
-    fn velocity_system(&self, c: usize) -> Option<(&CsrMatrix, Vec<f64>)> {
+    fn velocity_system(&self, c: usize) -> Option<(Cow<'_, CsrMatrix>, Vec<f64>)> {
         let (matrix, keep) = self.mass_solve.as_ref()?.constrained_system(c)?;
         let momentum = self
             .fields
