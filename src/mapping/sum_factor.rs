@@ -104,16 +104,16 @@ impl<const D: usize> CellQuadrature<D> {
         mut factors: impl FnMut(usize, &AxisPoints, &mut Vec<f64>) -> usize,
     ) {
         let g_count = self.points;
-        self.current.clear();
-        self.current.extend_from_slice(values);
-        // current: [outer = G^(D-1-a)][g_a][inner]
+        // source: [outer = G^(D-1-a)][g_a][inner] (`values` for the first axis, then the
+        // previous contraction in `current`)
         let mut inner = width;
         let mut outer = values.len() / width;
         for a in 0..D {
             outer /= g_count;
             let count = factors(a, &self.axes[a], &mut self.products);
+            let source = if a == 0 { values } else { &self.current };
             contract(
-                &self.current,
+                source,
                 &mut self.next,
                 outer,
                 g_count,
@@ -221,7 +221,9 @@ impl<const D: usize> CellQuadrature<D> {
 
 /// `next[o][k][r] = sum_g factors[g * count + k] current[o][g][r]` for `o < outer`,
 /// `k < count`, `r < inner` (`g` summed in increasing order from 0, in a register: one
-/// store per output).
+/// store per output). The point and function counts of the B-spline orders 1–4
+/// (`G = p + 2` Gauss points, `p + 1` functions per axis) run as fixed-size kernels; the
+/// sums are the same, term by term and in the same order, as the general loop's.
 fn contract(
     current: &[f64],
     next: &mut Vec<f64>,
@@ -232,16 +234,52 @@ fn contract(
     count: usize,
 ) {
     next.clear();
-    next.reserve(outer * count * inner);
+    next.resize(outer * count * inner, 0.0);
+    let current = &current[..outer * g_count * inner];
     let factors = &factors[..g_count * count];
-    for block in current[..outer * g_count * inner].chunks_exact(g_count * inner) {
-        for k in 0..count {
-            for r in 0..inner {
-                let mut t = 0.0;
-                for g in 0..g_count {
-                    t += factors[g * count + k] * block[g * inner + r];
+    match (g_count, count) {
+        (3, 2) => contract_fixed::<3, 2>(current, next, inner, factors),
+        (4, 3) => contract_fixed::<4, 3>(current, next, inner, factors),
+        (5, 4) => contract_fixed::<5, 4>(current, next, inner, factors),
+        (6, 5) => contract_fixed::<6, 5>(current, next, inner, factors),
+        _ => {
+            let blocks = current.chunks_exact(g_count * inner);
+            for (block, out) in blocks.zip(next.chunks_exact_mut(count * inner)) {
+                for (k, out_k) in out.chunks_exact_mut(inner).enumerate() {
+                    for (r, o) in out_k.iter_mut().enumerate() {
+                        let mut t = 0.0;
+                        for g in 0..g_count {
+                            t += factors[g * count + k] * block[g * inner + r];
+                        }
+                        *o = t;
+                    }
                 }
-                next.push(t);
+            }
+        }
+    }
+}
+
+/// [`contract`] for `G` points and `C` functions.
+#[inline(always)]
+fn contract_fixed<const G: usize, const C: usize>(
+    current: &[f64],
+    next: &mut [f64],
+    inner: usize,
+    factors: &[f64],
+) {
+    let columns: [[f64; G]; C] =
+        std::array::from_fn(|k| std::array::from_fn(|g| factors[g * C + k]));
+    for (block, out) in current
+        .chunks_exact(G * inner)
+        .zip(next.chunks_exact_mut(C * inner))
+    {
+        for (column, out_k) in columns.iter().zip(out.chunks_exact_mut(inner)) {
+            for (r, o) in out_k.iter_mut().enumerate() {
+                let mut t = 0.0;
+                for g in 0..G {
+                    t += column[g] * block[g * inner + r];
+                }
+                *o = t;
             }
         }
     }
