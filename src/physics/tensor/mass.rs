@@ -294,38 +294,18 @@ mod tests {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
 
-    /// A direct solver that counts its set-ups (`solve`) and re-solves (`resolve`).
-    struct Counting {
-        inner: DirectCholesky,
-        setups: Arc<AtomicUsize>,
-        resolves: Arc<AtomicUsize>,
-    }
-
-    impl LinearSolver for Counting {
-        fn name(&self) -> &'static str {
-            "direct"
-        }
-        fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-            self.setups.fetch_add(1, Ordering::Relaxed);
-            self.inner.solve(a, b, x)
-        }
-        fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-            self.resolves.fetch_add(1, Ordering::Relaxed);
-            self.inner.resolve(a, b, x)
-        }
-    }
-
-    /// Jacobi CG that counts its set-ups and can be told not to restrict.
-    struct CountingCg {
-        inner: crate::linalg::JacobiCg,
+    /// A solver that counts its set-ups (`solve`, `solve_restricted`) and re-solves, and
+    /// restricts only where `restricts` says so.
+    struct Counting<S> {
+        inner: S,
         restricts: bool,
         setups: Arc<AtomicUsize>,
         resolves: Arc<AtomicUsize>,
     }
 
-    impl LinearSolver for CountingCg {
+    impl<S: LinearSolver> LinearSolver for Counting<S> {
         fn name(&self) -> &'static str {
-            "pcg"
+            self.inner.name()
         }
         fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
             self.setups.fetch_add(1, Ordering::Relaxed);
@@ -336,7 +316,7 @@ mod tests {
             self.inner.resolve(a, b, x)
         }
         fn restricts(&self) -> bool {
-            self.restricts
+            self.restricts && self.inner.restricts()
         }
         fn solve_restricted(
             &mut self,
@@ -366,6 +346,7 @@ mod tests {
         one_step_with(held, |setups, resolves| {
             Box::new(Counting {
                 inner: DirectCholesky::new(),
+                restricts: false,
                 setups,
                 resolves,
             })
@@ -442,7 +423,7 @@ mod tests {
     fn a_restricting_solver_serves_every_component_with_one_set_up() {
         let cg = |restricts: bool| {
             move |setups, resolves| -> Box<dyn LinearSolver> {
-                Box::new(CountingCg {
+                Box::new(Counting {
                     inner: crate::linalg::JacobiCg::with_preconditioner(
                         crate::linalg::Jacobi::default(),
                         1e-13,
