@@ -981,6 +981,17 @@ fn split_shares<const D: usize>(
     out: &mut [[f64; 4]],
 ) {
     let centre: usize = (0..D).map(|a| 3usize.pow(a as u32)).sum();
+    let inside = (0..D).all(|a| {
+        let left = grid.axes[a].cell_left(index[a]);
+        x[a] - half[a] >= left && x[a] + half[a] <= left + grid.axes[a].h
+    });
+    if inside {
+        // The domain lies in the cell: the whole of `q` stays there.
+        for c in 0..4 {
+            out[centre][c] += q[c];
+        }
+        return;
+    }
     let mut parts = [[0.0; 4]; 27];
     parts[centre] = q;
     for a in 0..D {
