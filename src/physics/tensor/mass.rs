@@ -195,14 +195,16 @@ impl<const D: usize> TensorMassSolve<D> {
                     .iter()
                     .position(|e| e.shared_with.is_none() && e.keep == system.keep)
             };
-            if self.restricting && c == 0 {
-                let shared = system.matrix.get_or_insert_with(|| matrix.clone());
-                shared.values.copy_from_slice(&matrix.values);
-                shared.constrain(&self.mass_kept);
-            } else if system.shared_with.is_none() {
+            if system.shared_with.is_none() {
+                // The shared copy of a restricting solver keeps every node with mass.
+                let kept = if self.restricting {
+                    &self.mass_kept
+                } else {
+                    &system.keep
+                };
                 let constrained = system.matrix.get_or_insert_with(|| matrix.clone());
                 constrained.values.copy_from_slice(&matrix.values);
-                constrained.constrain(&system.keep);
+                constrained.constrain(kept);
             }
         }
     }
