@@ -235,6 +235,9 @@ impl<const D: usize> TensorDirectMapping<D> {
                         }
                     });
                 }
+                if let Some(slots) = &mut slots {
+                    slots.finish();
+                }
             },
         );
         for ((m, f), mf) in fields
