@@ -306,6 +306,44 @@ fn assert_solvers_agree_with_direct<const D: usize>(sets: &[&str], kinds: &[&str
 }
 
 #[test]
+fn the_summary_counts_one_velocity_solve_per_component_and_step() {
+    // The 2D/3D default: lumped acceleration, consistent velocity solve.
+    for (sets, dim) in [
+        (vec!["grid.cells=8"], 2),
+        (
+            vec!["grid.cells=4", "problem.dim=3", "particles.per_cell=8"],
+            3,
+        ),
+    ] {
+        let mut all = vec![
+            "method.reconstruction=\"tls\"",
+            "method.mass=\"consistent\"",
+            "solver.kind=\"kron\"",
+            "time.end=0.0002",
+        ];
+        all.extend(sets);
+        let summary = common::run(common::scenario("axis_aligned_mms", &all), Some(1));
+        let solver = &summary.solver;
+        assert_eq!(solver.kind, "kron");
+        assert!(summary.n_steps > 0);
+        assert_eq!(solver.solves, dim * summary.n_steps, "{dim}D");
+        assert!(
+            solver.total_iterations >= solver.solves,
+            "{dim}D: {solver:?}"
+        );
+        assert!(solver.total_iterations <= solver.solves * solver.max_iterations);
+    }
+    let lumped = common::run(
+        common::scenario("axis_aligned_mms", &["grid.cells=8", "time.end=0.0002"]),
+        Some(1),
+    );
+    assert_eq!(
+        (lumped.solver.kind.as_str(), lumped.solver.solves),
+        ("lumped", 0)
+    );
+}
+
+#[test]
 fn consistent_mass_results_are_bitwise_identical_on_one_and_three_threads() {
     let sets = [
         "method.reconstruction=\"tls\"",

@@ -323,6 +323,7 @@ fn write_outputs(
                 kind: totals.kind.into(),
                 total_iterations: totals.total_iterations,
                 max_iterations: totals.max_iterations,
+                solves: totals.solves,
             }
         },
         timings: None,

@@ -624,6 +624,7 @@ fn write_outputs<const D: usize>(
                 kind: totals.kind.into(),
                 total_iterations: totals.total_iterations,
                 max_iterations: totals.max_iterations,
+                solves: totals.solves,
             }
         },
         timings: Some(simulation.stepper.timings()),

@@ -33,6 +33,9 @@ pub struct SolverSummary {
     pub kind: String,
     pub total_iterations: usize,
     pub max_iterations: usize,
+    /// Linear solves (one per velocity component and mass system per step; 0 when
+    /// lumped): `total_iterations / solves` is the mean per solve.
+    pub solves: usize,
 }
 
 /// Everything `summary.json` holds.

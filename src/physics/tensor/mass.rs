@@ -84,21 +84,21 @@ impl<const D: usize> TensorMassSolve<D> {
         for (node, h) in &constraints.nodes {
             held[*node] = *h;
         }
-        let components = (0..D)
-            .map(|_| {
-                Ok(ComponentSystem {
-                    solver: std::sync::Mutex::new(make_solver()?),
-                    keep: vec![false; dofs],
-                    shared_with: None,
-                    matrix: None,
-                    acceleration: vec![0.0; dofs],
-                    velocity: vec![0.0; dofs],
-                    solved_this_step: false,
-                })
+        let solvers = (0..D).map(|_| make_solver()).collect::<Result<Vec<_>>>()?;
+        // Every component's solver is of the same kind (`D >= 1`).
+        let (name, restricting) = (solvers[0].name(), solvers[0].restricts());
+        let components = solvers
+            .into_iter()
+            .map(|solver| ComponentSystem {
+                solver: std::sync::Mutex::new(solver),
+                keep: vec![false; dofs],
+                shared_with: None,
+                matrix: None,
+                acceleration: vec![0.0; dofs],
+                velocity: vec![0.0; dofs],
+                solved_this_step: false,
             })
-            .collect::<Result<Vec<_>>>()?;
-        let probe = make_solver()?;
-        let (name, restricting) = (probe.name(), probe.restricts());
+            .collect();
         Ok(Self {
             acceleration,
             velocity,
