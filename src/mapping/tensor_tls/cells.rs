@@ -1,0 +1,133 @@
+//! Per-cell helpers of the 2D/3D TLS mapping ([`super`]): box volumes and cell axes, the
+//! density limiter and the split of a particle's totals between the cells its domain
+//! overlaps (`docs/tls.md`).
+
+// Index loops: the indices enter the formulas (terms, axes).
+#![allow(clippy::needless_range_loop)]
+
+use super::BoxRule;
+use crate::grid::TensorGrid;
+use crate::numerics::taylor_nd::{terms, TaylorBox, MAX_TERMS};
+
+/// `sum_k a_k t_k` over the terms of total degree 2.
+#[inline(always)]
+pub(super) fn dot<const D: usize>(a: &[f64; MAX_TERMS], t: &[f64; MAX_TERMS]) -> f64 {
+    let mut value = a[0];
+    for k in 1..terms(D, 2) {
+        value += a[k] * t[k];
+    }
+    value
+}
+
+/// `prod_a (hi_a - lo_a)`.
+#[inline]
+pub(super) fn box_volume<const D: usize>(lo: &[f64; D], hi: &[f64; D]) -> f64 {
+    let mut v = hi[0] - lo[0];
+    for a in 1..D {
+        v *= hi[a] - lo[a];
+    }
+    v
+}
+
+/// Axis indices of lexicographic cell `cell`.
+#[inline]
+pub(super) fn cell_axes<const D: usize>(grid: &TensorGrid<D>, cell: usize) -> [usize; D] {
+    let mut rest = cell;
+    std::array::from_fn(|a| {
+        let n = grid.axes[a].cells;
+        let i = rest % n;
+        rest /= n;
+        i
+    })
+}
+
+/// Scale the non-constant coefficients of a density fit towards its mean where it is
+/// negative at a Gauss point of the box; 1 if it did.
+pub(super) fn limit_density<const D: usize>(
+    taylor: &TaylorBox<D>,
+    rule: &BoxRule<D>,
+    a: &mut [f64; MAX_TERMS],
+) -> u64 {
+    if a[0] <= 0.0 {
+        return 0;
+    }
+    let mut lowest = f64::INFINITY;
+    rule.for_each(|x, _| {
+        let value = dot::<D>(a, &taylor.terms(x));
+        lowest = if value < lowest { value } else { lowest };
+    });
+    if lowest >= 0.0 {
+        return 0;
+    }
+    let theta = a[0] / (a[0] - lowest);
+    for c in a.iter_mut().skip(1) {
+        *c *= theta;
+    }
+    1
+}
+
+/// Add the shares of `q` of a particle at `x` with half-lengths `half` in the cell with
+/// axis indices `index` to `out[k]` (`k`: base-3 offset digits `o_a + 1`): along each axis
+/// the 1D rule (the domain `x_a +- min(l_a, h_a)` clipped to the grid, split in
+/// proportion to its overlap with the left neighbour, the cell and the right neighbour;
+/// the kept part is `q` minus the others, so the parts add up to `q`).
+pub(super) fn split_shares<const D: usize>(
+    grid: &TensorGrid<D>,
+    index: [usize; D],
+    x: [f64; D],
+    half: [f64; D],
+    q: [f64; 4],
+    out: &mut [[f64; 4]],
+) {
+    let centre: usize = (0..D).map(|a| 3usize.pow(a as u32)).sum();
+    let inside = (0..D).all(|a| {
+        let left = grid.axes[a].cell_left(index[a]);
+        x[a] - half[a] >= left && x[a] + half[a] <= left + grid.axes[a].h
+    });
+    if inside {
+        // The domain lies in the cell: the whole of `q` stays there.
+        for c in 0..4 {
+            out[centre][c] += q[c];
+        }
+        return;
+    }
+    let mut parts = [[0.0; 4]; 27];
+    parts[centre] = q;
+    for a in 0..D {
+        let g = &grid.axes[a];
+        let left = g.cell_left(index[a]);
+        let right = left + g.h;
+        if x[a] - half[a] >= left && x[a] + half[a] <= right {
+            continue;
+        }
+        let l = half[a].min(g.h);
+        let (lo, hi) = (
+            (x[a] - l).max(g.origin),
+            (x[a] + l).min(g.origin + g.length),
+        );
+        let step = 3usize.pow(a as u32);
+        let (over_left, over_right) = ((left - lo).max(0.0), (hi - right).max(0.0));
+        for k in 0..3usize.pow(D as u32) {
+            // Parts still centred along axis a (every part so far).
+            if (k / step) % 3 != 1 {
+                continue;
+            }
+            let part = parts[k];
+            let mut kept = part;
+            for c in 0..4 {
+                let per_length = part[c] / (hi - lo);
+                let to_left = over_left * per_length;
+                let to_right = over_right * per_length;
+                parts[k - step][c] = to_left;
+                parts[k + step][c] = to_right;
+                kept[c] = part[c] - to_left - to_right;
+            }
+            parts[k] = kept;
+        }
+    }
+    for (o, p) in out.iter_mut().zip(&parts) {
+        for c in 0..4 {
+            o[c] += p[c];
+        }
+    }
+}
