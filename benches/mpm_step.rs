@@ -31,15 +31,17 @@
 //!   (`scenarios/mms_bar.toml`, SPEC §6.5: neo-Hookean, per-particle body force, 3
 //!   particles per cell) with `N` particles, for plain MPM, CPDI, TLS and IMLS with the
 //!   gradient and the adjoint strain (`method.strain`): the cost of the IMLS step.
-//! * `mpm_step_2d/{basis}/t{threads}/N`: one `TensorTimeStepper::step` of the 2D (plane
+//! * `mpm_step_2d/{basis}/t{threads}/N`: one `TensorTimeStepper::step_ahead` of the 2D (plane
 //!   strain) core on the built-in `axis_aligned_mms` scenario (neo-Hookean, 4 particles per
 //!   cell, `dt = 1e-7`, lumped mass) on `n x n` cells, `n = 50, 158, 500`, i.e. `N = 4 n^2`
 //!   ≈ 1e4, 1e5, 1e6 particles. `basis` is `linear`, `bspline2`, `bspline3` (`method.basis =
 //!   "bspline"`, `method.order = 2 | 3`) or `gimp`; `threads` is 1 and
 //!   `available_parallelism()`. One iteration is exactly one call of
-//!   `sim.stepper.step(&mut sim.particles, TensorBody::PerParticle(&body), dt, step, t)`:
-//!   the per-particle body force `body` is the problem's `b(X_p, 0)`, computed once when
-//!   the simulation is built (its transcendental evaluation is not part of the step cost).
+//!   `sim.stepper.step_ahead(&mut sim.particles, PerParticle(&body), Some(PerParticle(&body)), dt, step, t)`
+//!   (as a run steps: the particle update maps the next step's mass and force where the
+//!   mapping allows it): the per-particle body force `body` is the problem's `b(X_p, 0)`,
+//!   computed once when the simulation is built (its transcendental evaluation is not part
+//!   of the step cost).
 //!   Each simulation is built once per (basis, size), lazily, so filtered-out sizes cost
 //!   nothing, and keeps stepping across the thread counts. Throughput in particle-steps per
 //!   second ("elements"); sizes from 1e6 use 10 flat samples.

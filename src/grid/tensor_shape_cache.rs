@@ -142,6 +142,17 @@ impl<const D: usize> TensorShapeCache<D> {
         }
         slots
     }
+
+    /// [`Self::slots`] for a pass that reads each particle's shape from its slot and then
+    /// stores the particle's next shape there ([`ShapeSlots`] is a [`TensorShapeSource`]
+    /// of its own range): ordinary stores, since the line was just read.
+    pub fn slots_in_place(&mut self, ranges: &[Range<usize>]) -> Vec<ShapeSlots<'_, D>> {
+        let mut slots = self.slots(ranges);
+        for slot in &mut slots {
+            slot.streaming = false;
+        }
+        slots
+    }
 }
 
 impl<const D: usize> ShapeSlots<'_, D> {
@@ -205,15 +216,41 @@ impl<const D: usize> TensorShapeSource<D> for TensorShapeCache<D> {
         shape: &mut TensorShape<D>,
     ) {
         debug_assert_eq!(N, self.support, "read with the support it was stored with");
-        let first = self.first[k];
-        let values = &self.values[k * 2 * N * D..(k + 1) * 2 * N * D];
-        for (a, axis) in shape.axes.iter_mut().enumerate() {
-            let slot = &values[2 * N * a..2 * N * (a + 1)];
-            axis.first = first[a] as usize;
-            axis.len = N;
-            axis.phi[..N].copy_from_slice(&slot[..N]);
-            axis.dphi[..N].copy_from_slice(&slot[N..]);
-        }
+        read_slot::<D, N>(&self.first, &self.values, k, shape);
+    }
+}
+
+impl<const D: usize> TensorShapeSource<D> for ShapeSlots<'_, D> {
+    /// Particle `k`'s shape as stored in this slot (`k` in the slot's range).
+    #[inline(always)]
+    fn shape_of<B: Basis, const N: usize>(
+        &self,
+        _basis: &TensorBasis<D, B>,
+        k: usize,
+        _x: [f64; D],
+        _half_length: [f64; D],
+        shape: &mut TensorShape<D>,
+    ) {
+        read_slot::<D, N>(self.first, self.values, k - self.start, shape);
+    }
+}
+
+/// The shape stored at index `i` of `first` / `values` (support `N` per axis).
+#[inline(always)]
+fn read_slot<const D: usize, const N: usize>(
+    first: &[[u32; D]],
+    values: &[f64],
+    i: usize,
+    shape: &mut TensorShape<D>,
+) {
+    let first = first[i];
+    let values = &values[i * 2 * N * D..(i + 1) * 2 * N * D];
+    for (a, axis) in shape.axes.iter_mut().enumerate() {
+        let slot = &values[2 * N * a..2 * N * (a + 1)];
+        axis.first = first[a] as usize;
+        axis.len = N;
+        axis.phi[..N].copy_from_slice(&slot[..N]);
+        axis.dphi[..N].copy_from_slice(&slot[N..]);
     }
 }
 

@@ -5,6 +5,7 @@
 //! [`TensorMapping`]; the time stepper is generic over it (one dispatch at build time).
 
 use super::tensor_direct::{TensorBody, TensorGridFields};
+use super::tensor_next::NextMassForce;
 use super::RemedyCounts;
 use crate::error::Result;
 use crate::grid::{Basis, TensorBasis, TensorShapeCache};
@@ -94,6 +95,15 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
     /// [`TensorMapping::update_velocities_and_map_momentum`] read them too: between the
     /// mass and force map and `forget_shapes` the particles must not move.
     fn shapes(&self) -> Option<&TensorShapeCache<D>> {
+        None
+    }
+
+    /// The scatter of the next step's mass and force, lent to this step's particle update
+    /// so that it maps each particle as it moves it ([`super::tensor_next`]); `None` (the
+    /// default) where the mapping's first pass cannot be done particle by particle in the
+    /// update. The next [`TensorMapping::map_mass_and_force`] is skipped when the fused
+    /// pass completed ([`NextMassForce::finish`]).
+    fn next_mass_and_force(&mut self) -> Option<NextMassForce<'_, D>> {
         None
     }
 

@@ -13,6 +13,8 @@
 //! and every momentum component are conserved by the mapping to round-off.
 
 use super::tensor::TensorMapping;
+use super::tensor_kernels::{add_mass_and_force, scatter_momentum};
+use super::tensor_next::NextMassForce;
 use super::tensor_scatter::TensorScatter;
 use crate::error::Result;
 use crate::grid::shape_cache::with_shape_source;
@@ -21,7 +23,6 @@ use crate::grid::{
     Basis, EvaluateTensor, ShapeSlots, TensorBasis, TensorShape, TensorShapeCache,
     TensorShapeSource,
 };
-use crate::particles::tensor::stress_index;
 use crate::particles::TensorParticles;
 use std::ops::Range;
 
@@ -199,56 +200,23 @@ impl<const D: usize> TensorDirectMapping<D> {
                     if let Some(slots) = &mut slots {
                         slots.store::<N>(k, &shape);
                     }
-                    let (m, vol) = (p.mass[k], p.volume[k]);
-                    let b = match body {
-                        TensorBody::Uniform(b) => b,
-                        TensorBody::PerParticle(b) => std::array::from_fn(|a| b[a][k]),
-                    };
-                    let mut sigma = [[0.0; D]; D];
-                    for (a, row) in sigma.iter_mut().enumerate() {
-                        for (c, s) in row.iter_mut().enumerate() {
-                            *s = vol * p.stress[stress_index(a, c)][k];
-                        }
-                    }
-                    // Per row: m phi_I = (m w) phi_i, and f_I,a = along_a phi_i +
-                    // across_a dphi_i with along_a = m b_a w - sum_{c >= 1} V sigma_ac dw_c,
-                    // across_a = -V sigma_a0 w.
-                    let (phi_x, dphi_x) = shape.x_functions_n::<N>();
-                    shape.for_each_row_n::<N>(&strides, |first, w, dw| {
-                        let row_mass = m * w;
-                        let mut along = [0.0; D];
-                        let mut across = [0.0; D];
-                        for a in 0..D {
-                            let mut internal = 0.0;
-                            for c in 1..D {
-                                internal += sigma[a][c] * dw[c];
-                            }
-                            along[a] = m * b[a] * w - internal;
-                            across[a] = -(sigma[a][0] * w);
-                        }
-                        let out = &mut local[first - lo..first - lo + phi_x.len()];
-                        for ((o, px), dx) in out.iter_mut().zip(phi_x).zip(dphi_x) {
-                            o[0] += row_mass * px;
-                            for a in 0..D {
-                                o[1 + a] += along[a] * px + across[a] * dx;
-                            }
-                        }
-                    });
+                    add_mass_and_force::<D, N>(
+                        &shape,
+                        &strides,
+                        p.mass[k],
+                        p.volume[k],
+                        |s| p.stress[s][k],
+                        body.at(k),
+                        lo,
+                        local,
+                    );
                 }
                 if let Some(slots) = &mut slots {
                     slots.finish();
                 }
             },
         );
-        for ((m, f), mf) in fields
-            .mass
-            .iter_mut()
-            .zip(fields.force.iter_mut())
-            .zip(&fields.mass_force)
-        {
-            *m = mf[0];
-            f.copy_from_slice(&mf[1..=D]);
-        }
+        unpack_mass_and_force(fields);
     }
 
     /// `p_I = sum_p m_p v_p phi_I` into `fields.momentum`.
@@ -327,8 +295,32 @@ impl<const D: usize> TensorDirectMapping<D> {
     }
 }
 
+/// `fields.mass`, `fields.force` from the scatter output `fields.mass_force`.
+pub(crate) fn unpack_mass_and_force<const D: usize>(fields: &mut TensorGridFields<D>) {
+    for ((m, f), mf) in fields
+        .mass
+        .iter_mut()
+        .zip(fields.force.iter_mut())
+        .zip(&fields.mass_force)
+    {
+        *m = mf[0];
+        f.copy_from_slice(&mf[1..=D]);
+    }
+}
+
+impl<const D: usize> TensorBody<'_, D> {
+    /// The body force (acceleration) of particle `k`.
+    #[inline(always)]
+    pub fn at(&self, k: usize) -> [f64; D] {
+        match self {
+            TensorBody::Uniform(b) => *b,
+            TensorBody::PerParticle(b) => std::array::from_fn(|a| b[a][k]),
+        }
+    }
+}
+
 /// The particles of each scatter task (consecutive ranges from 0: the tasks' cells).
-fn task_particles(
+pub(crate) fn task_particles(
     tasks: &[super::tensor_scatter::ScatterTask],
     cell_start: &[usize],
 ) -> Vec<Range<usize>> {
@@ -443,28 +435,6 @@ fn velocities_and_momentum<const D: usize, B: Basis, const N: usize, S: TensorSh
     total
 }
 
-/// `local[I - lo] += m_p v_p phi_I` over the support of `shape`, sum-factorised: per row
-/// `(m_p v_p w) phi^0_i` ([`TensorShape::for_each_row_n`]).
-#[inline(always)]
-fn scatter_momentum<const D: usize, const N: usize>(
-    shape: &TensorShape<D>,
-    strides: &[usize; D],
-    momentum: [f64; D],
-    lo: usize,
-    local: &mut [[f64; D]],
-) {
-    let (phi_x, _) = shape.x_functions_n::<N>();
-    shape.for_each_row_n::<N>(strides, |first, w, _| {
-        let row: [f64; D] = std::array::from_fn(|a| momentum[a] * w);
-        let out = &mut local[first - lo..first - lo + phi_x.len()];
-        for (o, px) in out.iter_mut().zip(phi_x) {
-            for a in 0..D {
-                o[a] += row[a] * px;
-            }
-        }
-    });
-}
-
 /// Split each component array into consecutive chunks of the lengths of `ranges` (which
 /// tile `0..n` in order): one `[&mut [f64]; D]` per range.
 pub fn split_components<'a, const D: usize>(
@@ -504,6 +474,16 @@ impl<const D: usize> TensorMapping<D> for TensorDirectMapping<D> {
 
     fn shapes(&self) -> Option<&TensorShapeCache<D>> {
         self.current_shapes()
+    }
+
+    fn next_mass_and_force(&mut self) -> Option<NextMassForce<'_, D>> {
+        let cache = self.shapes.as_mut()?;
+        Some(NextMassForce {
+            scatter: &mut self.mass_force,
+            cache,
+            shapes_current: &mut self.shapes_current,
+            half_length0: self.half_length0,
+        })
     }
 
     fn forget_shapes(&mut self) {

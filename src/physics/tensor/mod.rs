@@ -14,6 +14,7 @@ pub mod simulation;
 pub mod stability;
 pub mod step;
 pub mod timings;
+mod update;
 
 pub use boundary::{FaceConditions, NodeConstraints};
 pub use mass::TensorMassSolve;

@@ -43,6 +43,20 @@ pub trait TensorTimeStepper<const D: usize>: Send + Sync {
         step: usize,
         time: f64,
     ) -> Result<TensorStepReport>;
+    /// [`TensorStepper::step_ahead`]: the step, and with `next_body` the next step's
+    /// mass and force mapped in its particle update where the mapping allows it.
+    fn step_ahead(
+        &mut self,
+        particles: &mut TensorParticles<D>,
+        body: TensorBody<'_, D>,
+        next_body: Option<TensorBody<'_, D>>,
+        dt: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<TensorStepReport>;
+    /// Whether [`TensorTimeStepper::step_ahead`] uses its `next_body`
+    /// ([`TensorStepper::maps_ahead`]).
+    fn maps_ahead(&mut self) -> bool;
     fn energies(&self, particles: &TensorParticles<D>) -> (f64, f64);
     /// `method.basis`.
     fn basis_name(&self) -> &'static str;
@@ -82,6 +96,20 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
         time: f64,
     ) -> Result<TensorStepReport> {
         TensorStepper::step(self, particles, body, dt, step, time)
+    }
+    fn step_ahead(
+        &mut self,
+        particles: &mut TensorParticles<D>,
+        body: TensorBody<'_, D>,
+        next_body: Option<TensorBody<'_, D>>,
+        dt: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<TensorStepReport> {
+        TensorStepper::step_ahead(self, particles, body, next_body, dt, step, time)
+    }
+    fn maps_ahead(&mut self) -> bool {
+        TensorStepper::maps_ahead(self)
     }
     fn energies(&self, particles: &TensorParticles<D>) -> (f64, f64) {
         TensorStepper::energies(self, particles)
@@ -163,6 +191,12 @@ pub struct TensorSimulation<const D: usize> {
     pub max_mass_error: f64,
     pub max_momentum_error: f64,
     body_field: [Vec<f64>; D],
+    /// The per-particle body force of the next step, computed for the particle update of
+    /// a step that maps the next one ([`TensorStepper::step_ahead`]).
+    next_body_field: [Vec<f64>; D],
+    /// Whether `body_field` holds the body force of the coming step (computed as the last
+    /// step's `next_body_field`, for the particles in their current order).
+    body_field_current: bool,
 }
 
 impl<const D: usize> TensorSimulation<D> {
@@ -188,6 +222,8 @@ impl<const D: usize> TensorSimulation<D> {
             max_mass_error: 0.0,
             max_momentum_error: 0.0,
             body_field: std::array::from_fn(|_| Vec::new()),
+            next_body_field: std::array::from_fn(|_| Vec::new()),
+            body_field_current: false,
         }
     }
 
@@ -231,6 +267,23 @@ impl<const D: usize> TensorSimulation<D> {
         dt.min(self.end_time - self.time)
     }
 
+    /// The end time of the step after step `step` (which ends at `end_time` with step
+    /// size `dt`), when it is known before step `step` is taken: `None` after the last
+    /// step and before a recomputation of an automatic step size.
+    fn next_end_time(&self, step: usize, end_time: f64, dt: f64) -> Option<f64> {
+        match self.stepping {
+            TimeStepping::Fixed(dt) => {
+                let steps = self.fixed_steps()?;
+                (step < steps).then(|| (step + 1) as f64 * dt)
+            }
+            TimeStepping::Auto { .. } => {
+                let more = end_time < self.end_time * (1.0 - 1e-12);
+                let same_dt = !step.is_multiple_of(AUTO_DT_EVERY);
+                (more && same_dt).then(|| end_time + dt.min(self.end_time - end_time))
+            }
+        }
+    }
+
     /// Whether the run has reached its end time (or its fixed number of steps).
     pub fn finished(&self) -> bool {
         match self.fixed_steps() {
@@ -268,31 +321,58 @@ impl<const D: usize> TensorSimulation<D> {
                 TimeStepping::Fixed(dt) => step as f64 * dt,
                 TimeStepping::Auto { .. } => start_time + dt,
             };
+            // The end of the next step where it is known now (for its body force).
+            let next_end = self.next_end_time(step, end_time, dt);
+            let ahead = next_end.is_some() && self.stepper.maps_ahead();
             let report = match body.uniform(end_time) {
-                Some(b) => self.stepper.step(
-                    &mut self.particles,
-                    TensorBody::Uniform(b),
-                    dt,
-                    step,
-                    end_time,
-                )?,
+                Some(b) => {
+                    let next = next_end
+                        .filter(|_| ahead)
+                        .and_then(|t| body.uniform(t))
+                        .map(TensorBody::Uniform);
+                    self.stepper.step_ahead(
+                        &mut self.particles,
+                        TensorBody::Uniform(b),
+                        next,
+                        dt,
+                        step,
+                        end_time,
+                    )?
+                }
                 None => {
-                    let mut field = std::mem::replace(
-                        &mut self.body_field,
-                        std::array::from_fn(|_| Vec::new()),
-                    );
-                    for f in field.iter_mut() {
-                        f.resize(self.particles.len(), 0.0);
+                    let empty = || std::array::from_fn(|_| Vec::new());
+                    let mut field = std::mem::replace(&mut self.body_field, empty());
+                    let mut next = std::mem::replace(&mut self.next_body_field, empty());
+                    let n = self.particles.len();
+                    if !std::mem::take(&mut self.body_field_current) {
+                        for f in field.iter_mut() {
+                            f.resize(n, 0.0);
+                        }
+                        body.at_particles(&self.particles.x0, start_time, &mut field);
                     }
-                    body.at_particles(&self.particles.x0, start_time, &mut field);
-                    let report = self.stepper.step(
+                    if ahead {
+                        for f in next.iter_mut() {
+                            f.resize(n, 0.0);
+                        }
+                        // The next step starts at this one's end.
+                        body.at_particles(&self.particles.x0, end_time, &mut next);
+                    }
+                    let report = self.stepper.step_ahead(
                         &mut self.particles,
                         TensorBody::PerParticle(&field),
+                        ahead.then_some(TensorBody::PerParticle(&next)),
                         dt,
                         step,
                         end_time,
                     );
-                    self.body_field = field;
+                    // A re-sort reorders the particles: the next field is stale then.
+                    let keep_next = ahead && matches!(&report, Ok(r) if !r.sorted);
+                    if keep_next {
+                        (self.body_field, self.next_body_field) = (next, field);
+                        self.body_field_current = true;
+                    } else {
+                        (self.body_field, self.next_body_field) = (field, next);
+                    }
                     report?
                 }
             };

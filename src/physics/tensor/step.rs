@@ -17,17 +17,21 @@
 //! conservation errors of the mapping: mass `|sum_I m_I - sum_p m_p| / sum_p m_p`, and per
 //! momentum component `|sum_I p_I - sum_p m_p v_p| / sum_p m_p |v_p|`, the largest over
 //! the components.
+//!
+//! [`TensorStepper::step_ahead`] also maps the next step's mass and force (step 1) inside
+//! steps 4–5 where the mapping lends its scatter for it ([`crate::mapping::tensor_next`]):
+//! the next step then starts at step 2.
 
 use super::boundary::NodeConstraints;
 use super::mass::TensorMassSolve;
-use super::material::{LinearElasticTensor, NeoHookeanTensor, TensorLaw, TensorMaterial};
+use super::material::{TensorLaw, TensorMaterial};
 use super::timings::{PhaseClock, StepTimings};
+use super::update::{Bins, ParticleUpdate};
 use crate::config::MassKind;
 use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::shape_cache::with_shape_source;
-use crate::grid::tensor::with_fixed_support;
-use crate::grid::{Basis, EvaluateTensor, TensorBasis, TensorShape, TensorShapeSource};
+use crate::grid::{Basis, EvaluateTensor, TensorBasis};
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
@@ -36,8 +40,7 @@ use crate::physics::distributed::{momentum_error_over_ranks, RankContext, RankEx
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// Particles per rayon task in the particle update.
-const PARTICLES_PER_TASK: usize = 2048;
+pub use super::update::determinant;
 
 /// Diagnostics of one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -72,6 +75,9 @@ pub struct TensorStepper<const D: usize, B: Basis, M: TensorMapping<D> = TensorD
     total_mass: f64,
     /// This rank's part of a distributed run (`None`: one process).
     ranks: Option<Arc<RankContext>>,
+    /// Whether the last step's particle update mapped this step's mass and force
+    /// ([`Self::step_ahead`]).
+    mapped_ahead: bool,
 }
 
 impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
@@ -98,6 +104,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             bin_layer: Vec::new(),
             total_mass: deterministic_sum(particles.len(), |p| particles.mass[p]),
             ranks: None,
+            mapped_ahead: false,
         };
         stepper.sort(particles);
         stepper
@@ -105,6 +112,7 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
 
     /// Counting-sort `particles` by cell and record each particle's bin layer.
     fn sort(&mut self, particles: &mut TensorParticles<D>) {
+        self.mapped_ahead = false;
         let cells = self.basis.grid.num_cells();
         particles.sort_by_cell(cells, &mut self.cell_start, &mut self.order);
         let per_layer = self.basis.grid.cells_per_layer();
@@ -162,12 +170,36 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         step: usize,
         time: f64,
     ) -> Result<TensorStepReport> {
+        self.step_ahead(particles, body, None, dt, step, time)
+    }
+
+    /// [`Self::step`]; with `next_body`, the body force the next step will be called
+    /// with, the particle update also maps the next step's mass and force where the
+    /// mapping lends its scatter for it ([`TensorMapping::next_mass_and_force`]; one pass
+    /// over the particles less per step, bitwise the same grid values). The next call
+    /// must then pass `next_body` as its `body`, for the same particles.
+    pub fn step_ahead(
+        &mut self,
+        particles: &mut TensorParticles<D>,
+        body: TensorBody<'_, D>,
+        next_body: Option<TensorBody<'_, D>>,
+        dt: f64,
+        step: usize,
+        time: f64,
+    ) -> Result<TensorStepReport> {
         let fields = &mut self.fields;
         let mut clock = PhaseClock::start();
         let mut solve_seconds = 0.0;
-        // 1. Mass and force.
-        self.mapping
-            .map_mass_and_force(&self.basis, particles, &self.cell_start, body, fields)?;
+        // 1. Mass and force (unless the last update mapped them).
+        if !std::mem::take(&mut self.mapped_ahead) {
+            self.mapping.map_mass_and_force(
+                &self.basis,
+                particles,
+                &self.cell_start,
+                body,
+                fields,
+            )?;
+        }
         // The largest nodal mass sets the consistent mass's small-mass threshold.
         let largest_of = |mass: &[f64]| match self.mass_solve {
             Some(_) => mass.iter().copied().fold(0.0, f64::max),
@@ -258,30 +290,51 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             };
         }
         // 4.-5. Kinematics and stress.
-        let usl_acceleration = (self.scheme == Scheme::Usl).then_some(&fields.acceleration[..]);
-        let (basis, half0, velocity) = (
-            &self.basis,
-            self.mapping.particle_domains(),
-            &fields.velocity,
-        );
-        let bins = Bins {
-            layer: &self.bin_layer,
-            slack: self.mapping.bin_slack(),
-        };
-        let update = ParticleUpdate {
-            basis,
-            half_length0: half0,
-            bins,
+        let TensorGridFields {
             velocity,
-            usl_acceleration,
+            acceleration,
+            mass_force,
+            ..
+        } = &mut *fields;
+        let slack = self.mapping.bin_slack();
+        let update = ParticleUpdate {
+            basis: &self.basis,
+            half_length0: *self.mapping.particle_domains(),
+            bins: Bins {
+                layer: &self.bin_layer,
+                slack,
+            },
+            velocity,
+            usl_acceleration: (self.scheme == Scheme::Usl).then_some(&acceleration[..]),
             dt,
             material: self.material,
         };
-        let outcome = with_shape_source!(self.mapping.shapes(), EvaluateTensor, source => {
-            update.run(source, particles)
-        });
-        self.mapping.forget_shapes();
-        let mut outcome = outcome;
+        let next = match next_body {
+            Some(body) if self.ranks.is_none() => {
+                self.mapping.next_mass_and_force().zip(Some(body))
+            }
+            _ => None,
+        };
+        let mut outcome = match next {
+            Some((next, next_body)) => {
+                let (outcome, next) = update.run_mapping_next(
+                    next,
+                    next_body,
+                    &self.cell_start,
+                    particles,
+                    mass_force,
+                );
+                next.finish(outcome.mapped_next, fields);
+                outcome
+            }
+            None => {
+                let outcome = with_shape_source!(self.mapping.shapes(), EvaluateTensor, source => {
+                    update.run(source, particles)
+                });
+                self.mapping.forget_shapes();
+                outcome
+            }
+        };
         let mut migrated = 0;
         if let Some(ranks) = &self.ranks {
             // One collective after the update: failures, diagnostics and slab jumps.
@@ -341,13 +394,15 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             });
         }
         let sorted = migrated > 0
-            || if bins.slack == 0 {
+            || if slack == 0 {
                 outcome.crossings > 0
             } else {
                 outcome.strays > 0
             };
         if sorted {
             self.sort(particles);
+        } else {
+            self.mapped_ahead = outcome.mapped_next;
         }
         self.timings.particle_update_seconds += clock.lap();
         self.timings.mass_solve_seconds += solve_seconds;
@@ -359,6 +414,12 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
             sorted,
             energies: outcome.energies,
         })
+    }
+
+    /// Whether [`Self::step_ahead`] maps the next step's mass and force in the particle
+    /// update (the mapping lends its scatter for it, one process).
+    pub fn maps_ahead(&mut self) -> bool {
+        self.ranks.is_none() && self.mapping.next_mass_and_force().is_some()
     }
 
     /// Seconds per phase of the steps so far.
@@ -455,293 +516,4 @@ fn particle_momentum<const D: usize>(p: &TensorParticles<D>) -> ([f64; 3], f64) 
         out
     });
     ([mx, my, mz], scale)
-}
-
-struct Outcome {
-    crossings: usize,
-    /// Particles now more than `Bins::slack` layers of cells away from their bin.
-    strays: usize,
-    /// First failing particle (lowest index) and the failing field ("volume", "left" for
-    /// a particle outside the grid, or the non-finite field's name).
-    failure: Option<(usize, &'static str)>,
-    /// Kinetic and stored energy after the step (summed per chunk, then in chunk order).
-    energies: (f64, f64),
-}
-
-/// The binning the particle update checks against: the layer of each particle's bin and
-/// how far a particle may stray from it ([`TensorMapping::bin_slack`]).
-#[derive(Clone, Copy)]
-struct Bins<'a> {
-    layer: &'a [u32],
-    slack: usize,
-}
-
-/// Number of stored stress components a `D`-dimensional law can make non-zero: `xz` and
-/// `yz` (the last two) stay zero below 3D and are neither read nor written there.
-const fn live_stress_components(d: usize) -> usize {
-    if d < 3 {
-        4
-    } else {
-        6
-    }
-}
-
-/// `det F` of a `D x D` matrix.
-#[inline(always)]
-pub fn determinant<const D: usize>(f: &[[f64; D]; D]) -> f64 {
-    match D {
-        1 => f[0][0],
-        2 => f[0][0] * f[1][1] - f[0][1] * f[1][0],
-        _ => {
-            f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1])
-                - f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0])
-                + f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0])
-        }
-    }
-}
-
-/// The mutable fields of one chunk of particles (see [`update_particles`]).
-struct ChunkMut<'a, const D: usize> {
-    start: usize,
-    x: [&'a mut [f64]; D],
-    u: [&'a mut [f64]; D],
-    v: [&'a mut [f64]; D],
-    stress: [&'a mut [f64]; 6],
-    f: [[&'a mut [f64]; D]; D],
-    volume: &'a mut [f64],
-    cell: &'a mut [usize],
-}
-
-/// Split `field` into consecutive chunks of the lengths of `ranges` (which tile it).
-fn split<'a, T>(field: &'a mut [T], ranges: &[std::ops::Range<usize>]) -> Vec<&'a mut [T]> {
-    let mut chunks = Vec::with_capacity(ranges.len());
-    let mut rest = field;
-    for r in ranges {
-        let (head, tail) = std::mem::take(&mut rest).split_at_mut(r.len());
-        chunks.push(head);
-        rest = tail;
-    }
-    chunks
-}
-
-/// [`split`] for each of `N` component arrays, regrouped per chunk.
-fn split_array<'a, const N: usize>(
-    fields: &'a mut [Vec<f64>; N],
-    ranges: &[std::ops::Range<usize>],
-) -> Vec<[&'a mut [f64]; N]> {
-    let mut per_field: Vec<std::vec::IntoIter<&'a mut [f64]>> = fields
-        .iter_mut()
-        .map(|f| split(f, ranges).into_iter())
-        .collect();
-    (0..ranges.len())
-        .map(|_| std::array::from_fn(|a| per_field[a].next().unwrap_or_default()))
-        .collect()
-}
-
-fn chunks_of<'a, const D: usize>(
-    p: &'a mut TensorParticles<D>,
-    ranges: &[std::ops::Range<usize>],
-) -> Vec<ChunkMut<'a, D>> {
-    let mut x = split_array(&mut p.x, ranges).into_iter();
-    let mut u = split_array(&mut p.u, ranges).into_iter();
-    let mut v = split_array(&mut p.v, ranges).into_iter();
-    let mut stress = split_array(&mut p.stress, ranges).into_iter();
-    let mut f_rows: Vec<std::vec::IntoIter<[&'a mut [f64]; D]>> = p
-        .deformation_gradient
-        .iter_mut()
-        .map(|row| split_array(row, ranges).into_iter())
-        .collect();
-    let mut volume = split(&mut p.volume, ranges).into_iter();
-    let mut cell = split(&mut p.cell, ranges).into_iter();
-    ranges
-        .iter()
-        .map(|r| ChunkMut {
-            start: r.start,
-            x: x.next()
-                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
-            u: u.next()
-                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
-            v: v.next()
-                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
-            stress: stress
-                .next()
-                .unwrap_or_else(|| std::array::from_fn(|_| Default::default())),
-            f: std::array::from_fn(|a| {
-                f_rows[a]
-                    .next()
-                    .unwrap_or_else(|| std::array::from_fn(|_| Default::default()))
-            }),
-            volume: volume.next().unwrap_or_default(),
-            cell: cell.next().unwrap_or_default(),
-        })
-        .collect()
-}
-
-/// The arguments of [`update_particles`] other than the particles and the shape source.
-struct ParticleUpdate<'a, const D: usize, B: Basis> {
-    basis: &'a TensorBasis<D, B>,
-    half_length0: &'a Option<[f64; D]>,
-    bins: Bins<'a>,
-    velocity: &'a [[f64; D]],
-    usl_acceleration: Option<&'a [[f64; D]]>,
-    dt: f64,
-    material: TensorMaterial,
-}
-
-impl<const D: usize, B: Basis> ParticleUpdate<'_, D, B> {
-    /// [`update_particles`] compiled for the basis' support and the law (one dispatch).
-    fn run<S: TensorShapeSource<D>>(
-        &self,
-        source: &S,
-        particles: &mut TensorParticles<D>,
-    ) -> Outcome {
-        let u = self;
-        with_fixed_support!(u.basis, N => match u.material {
-            TensorMaterial::Linear(law) => update_particles::<D, B, LinearElasticTensor, N, S>(
-                u, source, particles, law,
-            ),
-            TensorMaterial::NeoHookean(law) => update_particles::<D, B, NeoHookeanTensor, N, S>(
-                u, source, particles, law,
-            ),
-        })
-    }
-}
-
-/// Steps 4–5 and the new cells (see the module doc); with `usl_acceleration` also
-/// `v_p += dt phi^T a`. Parallel over fixed chunks of particles, each task writing only
-/// its own chunk.
-fn update_particles<const D: usize, B: Basis, L: TensorLaw, const N: usize, S>(
-    update: &ParticleUpdate<'_, D, B>,
-    source: &S,
-    particles: &mut TensorParticles<D>,
-    law: L,
-) -> Outcome
-where
-    S: TensorShapeSource<D>,
-{
-    let ParticleUpdate {
-        basis,
-        half_length0,
-        bins,
-        velocity,
-        usl_acceleration,
-        dt,
-        ..
-    } = *update;
-    let live = live_stress_components(D);
-    let n = particles.len();
-    let strides = *basis.strides();
-    let grid = basis.grid;
-    let ranges: Vec<std::ops::Range<usize>> = (0..n)
-        .step_by(PARTICLES_PER_TASK)
-        .map(|s| s..(s + PARTICLES_PER_TASK).min(n))
-        .collect();
-    let mass = std::mem::take(&mut particles.mass);
-    let volume0 = std::mem::take(&mut particles.volume0);
-    let chunks = chunks_of(particles, &ranges);
-    #[allow(clippy::type_complexity)]
-    let results: Vec<(usize, usize, Option<(usize, &'static str)>, f64, f64)> = chunks
-        .into_par_iter()
-        .map(|c| {
-            let mut shape = TensorShape::<D>::default();
-            let (mut crossings, mut strays) = (0, 0);
-            let mut failure = None;
-            let (mut kinetic, mut stored) = (0.0, 0.0);
-            for i in 0..c.volume.len() {
-                let k = c.start + i;
-                let x: [f64; D] = std::array::from_fn(|a| c.x[a][i]);
-                let f_old: [[f64; D]; D] =
-                    std::array::from_fn(|a| std::array::from_fn(|b| c.f[a][b][i]));
-                let half = match half_length0 {
-                    Some(l0) => std::array::from_fn(|a| l0[a] * f_old[a][a].abs()),
-                    None => [0.0; D],
-                };
-                source.shape_of::<B, N>(basis, k, x, half, &mut shape);
-                let (v_grid, l) = shape.interpolate_with_gradient_n::<N>(&strides, velocity);
-                if let Some(a) = usl_acceleration {
-                    let dv = shape.interpolate_n::<N>(&strides, a);
-                    for d in 0..D {
-                        c.v[d][i] += dt * dv[d];
-                    }
-                }
-                let mut new_x = [0.0; D];
-                for d in 0..D {
-                    let du = dt * v_grid[d];
-                    c.u[d][i] += du;
-                    c.x[d][i] += du;
-                    new_x[d] = c.x[d][i];
-                }
-                // F <- (I + dt L) F.
-                let dl: [[f64; D]; D] =
-                    std::array::from_fn(|a| std::array::from_fn(|b| dt * l[a][b]));
-                let mut f = f_old;
-                for a in 0..D {
-                    for b in 0..D {
-                        let mut sum = f_old[a][b];
-                        for e in 0..D {
-                            sum += dl[a][e] * f_old[e][b];
-                        }
-                        f[a][b] = sum;
-                        c.f[a][b][i] = sum;
-                    }
-                }
-                let j = determinant(&f);
-                let volume = j * volume0[k];
-                c.volume[i] = volume;
-                let mut stress: [f64; 6] =
-                    std::array::from_fn(|s| if s < live { c.stress[s][i] } else { 0.0 });
-                stored += law.update_with_energy(&mut stress, &dl, &f, j, volume0[k]);
-                let mut speed2 = 0.0;
-                for d in 0..D {
-                    speed2 += c.v[d][i] * c.v[d][i];
-                }
-                kinetic += 0.5 * mass[k] * speed2;
-                let mut finite = true;
-                for (s, value) in stress.iter().enumerate().take(live) {
-                    c.stress[s][i] = *value;
-                    finite &= value.is_finite();
-                }
-                let bad = if !(0..D).all(|d| c.v[d][i].is_finite()) {
-                    Some("velocity")
-                } else if j.is_nan() || j <= 0.0 {
-                    Some("volume")
-                } else if !finite {
-                    Some("stress")
-                } else if !new_x.iter().all(|x| x.is_finite()) {
-                    Some("position")
-                } else {
-                    None
-                };
-                match (bad, grid.axis_cells_of(new_x)) {
-                    (None, Some(index)) => {
-                        let e = grid.cell_index(index);
-                        crossings += usize::from(e != c.cell[i]);
-                        c.cell[i] = e;
-                        let layer = index[D - 1].abs_diff(bins.layer[k] as usize);
-                        strays += usize::from(layer > bins.slack);
-                    }
-                    (None, None) => failure = failure.or(Some((k, "left"))),
-                    (Some(b), _) => failure = failure.or(Some((k, b))),
-                }
-            }
-            (crossings, strays, failure, kinetic, stored)
-        })
-        .collect();
-    particles.mass = mass;
-    particles.volume0 = volume0;
-    let mut outcome = Outcome {
-        crossings: 0,
-        strays: 0,
-        failure: None,
-        energies: (0.0, 0.0),
-    };
-    // In chunk order: deterministic for any thread count.
-    for (c, s, f, kinetic, stored) in results {
-        outcome.crossings += c;
-        outcome.strays += s;
-        outcome.failure = outcome.failure.or(f);
-        outcome.energies.0 += kinetic;
-        outcome.energies.1 += stored;
-    }
-    outcome
 }

@@ -24,7 +24,9 @@ pub struct StepTimings {
     pub mass_solve_seconds: f64,
     /// Particle velocity update and momentum mapping (MUSL; 0 with USL).
     pub velocity_and_momentum_seconds: f64,
-    /// Kinematics, stress update, new cells and the counting sort.
+    /// Kinematics, stress update, new cells and the counting sort (with the direct
+    /// mapping's stored shapes also the next step's mass and force mapping,
+    /// [`crate::mapping::tensor_next`]).
     pub particle_update_seconds: f64,
     /// Seconds a rank of a distributed run spent exchanging with the others (part of the
     /// phases above; absent from `summary.json` for one process).
