@@ -398,10 +398,7 @@ impl MlsMapping {
                 });
                 counts
             })
-            .reduce(RemedyCounts::default, |mut a, b| {
-                a += b;
-                a
-            });
+            .sum();
         self.remedies += counts;
     }
 
@@ -507,10 +504,7 @@ impl Mapping for MlsMapping {
                 *out = m.fit(kind, 1, &mut counts)[0];
                 counts
             })
-            .reduce(RemedyCounts::default, |mut a, b| {
-                a += b;
-                a
-            });
+            .sum();
         self.remedies += counts;
         match self
             .consistent

@@ -92,6 +92,27 @@ pub struct RemedyCounts {
     pub strain_fallbacks: u64,
 }
 
+impl RemedyCounts {
+    /// `n` degenerate fits, each repaired by order reduction.
+    pub fn order_reduced(n: u64) -> Self {
+        Self {
+            degenerate_fits: n,
+            order_reduced_fits: n,
+            ..Self::default()
+        }
+    }
+}
+
+/// Counts summed over cells (integers: the same total in any order, for any thread count).
+impl std::iter::Sum for RemedyCounts {
+    fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
+        iter.fold(Self::default(), |mut total, counts| {
+            total += counts;
+            total
+        })
+    }
+}
+
 impl std::ops::AddAssign for RemedyCounts {
     fn add_assign(&mut self, other: Self) {
         self.degenerate_fits += other.degenerate_fits;

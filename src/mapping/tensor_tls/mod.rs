@@ -38,6 +38,9 @@
 //! point has its non-constant coefficients scaled by `theta = a_1 / (a_1 - min_g rho_hat)`,
 //! which keeps the cell mass and makes the lumped masses non-negative and `M^C` positive
 //! semi-definite.
+//!
+//! The fits are in `fits.rs`, their Gauss integration against the basis in
+//! `integrate.rs`, the box, share and limiter helpers in `cells.rs`.
 
 // Index loops: the indices enter the formulas (terms, axes, LDL^T rows).
 #![allow(clippy::needless_range_loop)]
@@ -54,8 +57,7 @@ use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, TensorBasis, TensorGrid, TensorShape};
 use crate::linalg::CsrMatrix;
 use crate::numerics::gauss::{GaussRule, MAX_POINTS};
-use crate::numerics::taylor_nd::{add_rhs, fit_degree, NormalMatrix, TaylorBox, MAX_TERMS};
-use crate::particles::tensor::stress_index;
+use crate::numerics::taylor_nd::{TaylorBox, MAX_TERMS};
 use crate::particles::TensorParticles;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -428,299 +430,6 @@ impl<const D: usize> TensorTlsMapping<D> {
         }
     }
 
-    /// Fit stress (full) and density (conservative) in every active cell; density limiter.
-    /// With `body` (per-particle body forces `b_p`, totals in `cell_totals[e][1..]`), also
-    /// the conservative fits of `rho_p b_p` into `self.vector`, from the same normal
-    /// matrix.
-    fn fit_stress_and_density(
-        &mut self,
-        particles: &TensorParticles<D>,
-        cell_start: &[usize],
-        body: Option<&[Vec<f64>; D]>,
-    ) {
-        let components = stress_components::<D>();
-        let ns = components.len();
-        let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
-        let conservative_degree = self.conservative_degree;
-        let rule = &self.rule;
-        let counts: RemedyCounts = self
-            .stress
-            .par_chunks_mut(ns)
-            .zip(self.density.par_iter_mut())
-            .zip(self.vector.par_chunks_mut(D))
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .map(|(cell, ((stress, density), body_fits))| {
-                let mut counts = RemedyCounts::default();
-                if !active[cell] {
-                    stress.fill([0.0; MAX_TERMS]);
-                    *density = [0.0; MAX_TERMS];
-                    body_fits.fill([0.0; MAX_TERMS]);
-                    return counts;
-                }
-                let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                let mut normal = NormalMatrix::<D>::default();
-                let mut stress_rhs = [[0.0; MAX_TERMS]; 6];
-                let mut density_rhs = [0.0; MAX_TERMS];
-                let mut body_rhs = [[0.0; MAX_TERMS]; D];
-                for p in cell_start[cell]..cell_start[cell + 1] {
-                    let t = taylor.terms(particles.position(p));
-                    normal.add(&t);
-                    for (rhs, &(a, c)) in stress_rhs.iter_mut().zip(&components) {
-                        add_rhs::<D>(rhs, &t, particles.stress[stress_index(a, c)][p]);
-                    }
-                    add_rhs::<D>(&mut density_rhs, &t, particles.density(p));
-                    if let Some(b) = body {
-                        for a in 0..D {
-                            add_rhs::<D>(&mut body_rhs[a], &t, particles.density(p) * b[a][p]);
-                        }
-                    }
-                }
-                let (full, q_full) = fit_degree(&normal, false, MAX_DEGREE);
-                let (conservative, q_cons) = fit_degree(&normal, true, conservative_degree);
-                for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
-                    *a = full.solve(&normal, rhs, 0.0);
-                }
-                let volume = box_volume(&lo[cell], &hi[cell]);
-                let a1 = totals[cell][0] / volume;
-                *density = conservative.solve(&normal, &density_rhs, a1);
-                counts.density_limited_fits =
-                    limit_density(&taylor, &BoxRule::new(rule, lo[cell], hi[cell]), density);
-                if body.is_some() {
-                    for a in 0..D {
-                        body_fits[a] =
-                            conservative.solve(&normal, &body_rhs[a], totals[cell][1 + a] / volume);
-                    }
-                }
-                let reduced = u64::from(q_full < MAX_DEGREE)
-                    + u64::from(q_cons < conservative_degree) * if body.is_some() { 2 } else { 1 };
-                counts.degenerate_fits = reduced;
-                counts.order_reduced_fits = reduced;
-                counts
-            })
-            .reduce(RemedyCounts::default, |mut a, b| {
-                a += b;
-                a
-            });
-        self.remedies += counts;
-    }
-
-    /// Conservative fits of the `D` components of `values[a][p]` (densities
-    /// `rho_p values_p`, totals `m_p values_p`) into `self.vector`.
-    fn fit_vector(
-        &mut self,
-        particles: &TensorParticles<D>,
-        cell_start: &[usize],
-        values: &[Vec<f64>; D],
-    ) -> Result<()> {
-        self.update_totals(particles, cell_start, |p| {
-            let mut q = [0.0; 4];
-            for a in 0..D {
-                q[a] = particles.mass[p] * values[a][p];
-            }
-            q
-        })?;
-        let (lo, hi, active, totals) = (&self.lo, &self.hi, &self.active, &self.cell_totals);
-        let conservative_degree = self.conservative_degree;
-        let counts: RemedyCounts = self
-            .vector
-            .par_chunks_mut(D)
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .map(|(cell, fits)| {
-                let mut counts = RemedyCounts::default();
-                if !active[cell] {
-                    fits.fill([0.0; MAX_TERMS]);
-                    return counts;
-                }
-                let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                let mut normal = NormalMatrix::<D>::default();
-                let mut rhs = [[0.0; MAX_TERMS]; D];
-                for p in cell_start[cell]..cell_start[cell + 1] {
-                    let t = taylor.terms(particles.position(p));
-                    normal.add(&t);
-                    for a in 0..D {
-                        add_rhs::<D>(&mut rhs[a], &t, particles.density(p) * values[a][p]);
-                    }
-                }
-                let (conservative, q) = fit_degree(&normal, true, conservative_degree);
-                let volume = box_volume(&lo[cell], &hi[cell]);
-                for a in 0..D {
-                    fits[a] = conservative.solve(&normal, &rhs[a], totals[cell][a] / volume);
-                }
-                let reduced = u64::from(q < conservative_degree);
-                counts.degenerate_fits = reduced;
-                counts.order_reduced_fits = reduced;
-                counts
-            })
-            .reduce(RemedyCounts::default, |mut a, b| {
-                a += b;
-                a
-            });
-        self.remedies += counts;
-        Ok(())
-    }
-
-    /// `out_I = sum_g w_g v_hat(x_g) phi_I(x_g)` of the fitted vector density.
-    fn integrate_vector<B: Basis, const N: usize>(
-        &mut self,
-        basis: &TensorBasis<D, B>,
-        out: &mut [[f64; D]],
-    ) {
-        let strides = *basis.strides();
-        let (lo, hi, active, vector, rule) =
-            (&self.lo, &self.hi, &self.active, &self.vector, &self.rule);
-        self.vector_scatter
-            .scatter_cells(out, |cells: Range<usize>, first, local| {
-                let mut shape = TensorShape::<D>::default();
-                let mut quadrature = CellQuadrature::<D>::default();
-                let mut values = Vec::with_capacity(rule.len.pow(D as u32) * D);
-                for cell in cells {
-                    if !active[cell] {
-                        continue;
-                    }
-                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                    let index = cell_axes(&basis.grid, cell);
-                    let fits = &vector[cell * D..(cell + 1) * D];
-                    let points = BoxRule::new(rule, lo[cell], hi[cell]);
-                    if quadrature.set_cell(basis, index, &points.x, rule.len) {
-                        values.clear();
-                        points.for_each(|x, w| {
-                            let t = taylor.terms(x);
-                            values.extend((0..D).map(|a| dot::<D>(&fits[a], &t) * w));
-                        });
-                        quadrature.integrate(&values, D, None, &strides, |node, r| {
-                            let o = &mut local[node - first];
-                            for a in 0..D {
-                                o[a] += r[a];
-                            }
-                        });
-                        continue;
-                    }
-                    points.for_each(|x, w| {
-                        basis.eval_particle(index, x, [0.0; D], &mut shape);
-                        let t = taylor.terms(x);
-                        let value: [f64; D] = std::array::from_fn(|a| dot::<D>(&fits[a], &t) * w);
-                        shape.for_each_node_n::<N>(&strides, |node, phi, _| {
-                            let o = &mut local[node - first];
-                            for a in 0..D {
-                                o[a] += value[a] * phi;
-                            }
-                        });
-                    });
-                }
-            });
-    }
-
-    /// `m_I`, `f_I = int (rho b)_hat phi_I - sigma_hat . grad phi_I` (the body term with
-    /// `with_body`, from the fits in `self.vector`) into the mass-force scatter output.
-    fn integrate_mass_and_force<B: Basis, const N: usize>(
-        &mut self,
-        basis: &TensorBasis<D, B>,
-        out: &mut [[f64; 4]],
-        with_body: bool,
-    ) {
-        let strides = *basis.strides();
-        let components = stress_components::<D>();
-        let ns = components.len();
-        let (lo, hi, active, stress, density, vector, rule) = (
-            &self.lo,
-            &self.hi,
-            &self.active,
-            &self.stress,
-            &self.density,
-            &self.vector,
-            &self.rule,
-        );
-        let components = &components;
-        self.mass_force
-            .scatter_cells(out, |cells: Range<usize>, first, local| {
-                let mut shape = TensorShape::<D>::default();
-                let mut quadrature = CellQuadrature::<D>::default();
-                let count = rule.len.pow(D as u32);
-                // Per point: mass and body weights (1 + D), then per derivative axis c the
-                // stress column sigma_(a c) w (D each).
-                let mut mass_values = Vec::with_capacity(count * (1 + D));
-                let mut stress_values: [Vec<f64>; D] =
-                    std::array::from_fn(|_| Vec::with_capacity(count * D));
-                let mass_width = if with_body { 1 + D } else { 1 };
-                for cell in cells {
-                    if !active[cell] {
-                        continue;
-                    }
-                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                    let index = cell_axes(&basis.grid, cell);
-                    let fits = &stress[cell * ns..(cell + 1) * ns];
-                    let body = &vector[cell * D..(cell + 1) * D];
-                    let points = BoxRule::new(rule, lo[cell], hi[cell]);
-                    let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
-                    mass_values.clear();
-                    for column in stress_values.iter_mut() {
-                        column.clear();
-                    }
-                    points.for_each(|x, w| {
-                        let t = taylor.terms(x);
-                        let mut sw = [[0.0; D]; D];
-                        for (fit, &(a, c)) in fits.iter().zip(components) {
-                            let s = dot::<D>(fit, &t) * w;
-                            sw[a][c] = s;
-                            sw[c][a] = s;
-                        }
-                        let rw = dot::<D>(&density[cell], &t) * w;
-                        let bw: [f64; D] = std::array::from_fn(|a| {
-                            if with_body {
-                                dot::<D>(&body[a], &t) * w
-                            } else {
-                                0.0
-                            }
-                        });
-                        if uniform {
-                            mass_values.push(rw);
-                            if with_body {
-                                mass_values.extend_from_slice(&bw);
-                            }
-                            for c in 0..D {
-                                stress_values[c].extend((0..D).map(|a| sw[a][c]));
-                            }
-                            return;
-                        }
-                        basis.eval_particle(index, x, [0.0; D], &mut shape);
-                        shape.for_each_node_n::<N>(&strides, |node, phi, grad| {
-                            let o = &mut local[node - first];
-                            o[0] += rw * phi;
-                            for a in 0..D {
-                                let mut internal = 0.0;
-                                for c in 0..D {
-                                    internal += sw[a][c] * grad[c];
-                                }
-                                o[1 + a] += bw[a] * phi - internal;
-                            }
-                        });
-                    });
-                    if !uniform {
-                        continue;
-                    }
-                    quadrature.integrate(&mass_values, mass_width, None, &strides, |node, r| {
-                        let o = &mut local[node - first];
-                        o[0] += r[0];
-                        if with_body {
-                            for a in 0..D {
-                                o[1 + a] += r[1 + a];
-                            }
-                        }
-                    });
-                    for c in 0..D {
-                        quadrature.integrate(&stress_values[c], D, Some(c), &strides, |node, r| {
-                            let o = &mut local[node - first];
-                            for a in 0..D {
-                                o[1 + a] -= r[a];
-                            }
-                        });
-                    }
-                }
-            });
-    }
-
     /// Fit and integrate the vector field `values` into `out`.
     fn map_vector<B: Basis>(
         &mut self,
@@ -911,7 +620,9 @@ fn update_velocities<const D: usize, B: Basis, const N: usize>(
 }
 
 mod cells;
-use cells::{box_volume, cell_axes, dot, limit_density, split_shares};
+mod fits;
+mod integrate;
+use cells::{cell_axes, dot, split_shares};
 
 #[cfg(test)]
 mod consistent_tests;
