@@ -36,6 +36,16 @@ struct AxisPoints {
     dphi: Vec<f64>,
 }
 
+/// Which factors [`CellQuadrature::contract_axes`] contracts an axis with.
+enum AxisFactors {
+    /// The axis' `phi`, in place.
+    Phi,
+    /// The axis' `dphi`, in place.
+    Dphi,
+    /// The scratch buffer, filled by the caller with this many factors per coordinate.
+    Buffer(usize),
+}
+
 /// Per-axis function values at the Gauss coordinates of one cell and the scratch of the
 /// axis-by-axis contractions.
 #[derive(Clone, Debug)]
@@ -45,6 +55,8 @@ pub struct CellQuadrature<const D: usize> {
     current: Vec<f64>,
     next: Vec<f64>,
     products: Vec<f64>,
+    /// Scratch of [`Self::set_cell`] (zeroed once, not per cell).
+    shape: Shape,
 }
 
 impl<const D: usize> Default for CellQuadrature<D> {
@@ -55,6 +67,7 @@ impl<const D: usize> Default for CellQuadrature<D> {
             current: Vec::new(),
             next: Vec::new(),
             products: Vec::new(),
+            shape: Shape::default(),
         }
     }
 }
@@ -71,37 +84,39 @@ impl<const D: usize> CellQuadrature<D> {
         points: usize,
     ) -> bool {
         self.points = points;
-        let mut shape = Shape::default();
+        let shape = &mut self.shape;
         for a in 0..D {
             let axis = &mut self.axes[a];
             axis.phi.clear();
             axis.dphi.clear();
             for g in 0..points {
-                basis
-                    .axis(a)
-                    .eval_particle(cell[a], x[a][g], 0.0, &mut shape);
+                basis.axis(a).eval_particle(cell[a], x[a][g], 0.0, shape);
                 if g == 0 {
                     axis.first = shape.first;
                     axis.len = shape.len;
                 } else if shape.first != axis.first || shape.len != axis.len {
                     return false;
                 }
-                axis.phi.extend_from_slice(&shape.phi[..shape.len]);
-                axis.dphi.extend_from_slice(&shape.dphi[..shape.len]);
+                // Element by element: a handful of values, cheaper than a `memcpy` call.
+                for i in 0..shape.len {
+                    axis.phi.push(shape.phi[i]);
+                    axis.dphi.push(shape.dphi[i]);
+                }
             }
         }
         true
     }
 
     /// Contract `values` (`width` fields per point, points x fastest) over every axis in
-    /// turn into `self.current`: `factors(a, axis, buffer)` fills `buffer[g * count + k]`
-    /// with axis `a`'s factor of output `k` at coordinate `g` and returns `count`. The
-    /// result is laid out `[k_{D-1}] ... [k_0][field]`.
+    /// turn into `self.current`: `factors(a, axis, buffer)` names axis `a`'s factors, laid
+    /// out `[g * count + k]` for output `k` at coordinate `g`: the axis' own `phi` or
+    /// `dphi` (`count = len`, read in place), or `buffer` after filling it. The result is
+    /// laid out `[k_{D-1}] ... [k_0][field]`.
     fn contract_axes(
         &mut self,
         values: &[f64],
         width: usize,
-        mut factors: impl FnMut(usize, &AxisPoints, &mut Vec<f64>) -> usize,
+        mut factors: impl FnMut(usize, &AxisPoints, &mut Vec<f64>) -> AxisFactors,
     ) {
         let g_count = self.points;
         // source: [outer = G^(D-1-a)][g_a][inner] (`values` for the first axis, then the
@@ -110,17 +125,14 @@ impl<const D: usize> CellQuadrature<D> {
         let mut outer = values.len() / width;
         for a in 0..D {
             outer /= g_count;
-            let count = factors(a, &self.axes[a], &mut self.products);
+            let axis = &self.axes[a];
+            let (table, count): (&[f64], usize) = match factors(a, axis, &mut self.products) {
+                AxisFactors::Phi => (&axis.phi, axis.len),
+                AxisFactors::Dphi => (&axis.dphi, axis.len),
+                AxisFactors::Buffer(count) => (&self.products, count),
+            };
             let source = if a == 0 { values } else { &self.current };
-            contract(
-                source,
-                &mut self.next,
-                outer,
-                g_count,
-                inner,
-                &self.products,
-                count,
-            );
+            contract(source, &mut self.next, outer, g_count, inner, table, count);
             std::mem::swap(&mut self.current, &mut self.next);
             inner *= count;
         }
@@ -138,15 +150,12 @@ impl<const D: usize> CellQuadrature<D> {
         strides: &[usize; D],
         mut visit: impl FnMut(usize, &[f64]),
     ) {
-        self.contract_axes(values, width, |a, axis, factors| {
-            let source = if derivative == Some(a) {
-                &axis.dphi
+        self.contract_axes(values, width, |a, _, _| {
+            if derivative == Some(a) {
+                AxisFactors::Dphi
             } else {
-                &axis.phi
-            };
-            factors.clear();
-            factors.extend_from_slice(&source[..axis.phi.len()]);
-            axis.len
+                AxisFactors::Phi
+            }
         });
         // current: [i_{D-1}] ... [i_0][field]
         let mut index = [0usize; D];
@@ -185,7 +194,7 @@ impl<const D: usize> CellQuadrature<D> {
                     }
                 }
             }
-            l * l
+            AxisFactors::Buffer(l * l)
         });
         // current: [pair_{D-1}] ... [pair_0], pair_a = i_a L_a + j_a: an odometer over
         // (j_0, i_0, j_1, i_1, ...), j fastest.

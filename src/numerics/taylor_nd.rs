@@ -212,7 +212,8 @@ impl Factor {
         if first == 1 {
             a[0] = a1;
         }
-        let mut x = [0.0; MAX_TERMS];
+        // Solved in place in the fitted coefficients (no copy afterwards).
+        let x = &mut a[first..];
         for i in 0..n {
             let fixed = if first == 1 {
                 a1 * normal.d[0][1 + i]
@@ -235,7 +236,6 @@ impl Factor {
             }
             x[i] = s;
         }
-        a[first..first + n].copy_from_slice(&x[..n]);
         a
     }
 }
