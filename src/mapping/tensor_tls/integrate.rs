@@ -12,11 +12,10 @@
 // Index loops: the indices enter the formulas (axes).
 #![allow(clippy::needless_range_loop)]
 
-use super::cells::{cell_axes, dot};
-use super::{stress_components, BoxRule, TensorTlsMapping};
+use super::cells::dot;
+use super::{stress_components, GaussCell, TensorTlsMapping};
 use crate::grid::{Basis, TensorBasis, TensorShape};
 use crate::mapping::sum_factor::CellQuadrature;
-use crate::numerics::taylor_nd::TaylorBox;
 use std::ops::Range;
 
 impl<const D: usize> TensorTlsMapping<D> {
@@ -38,11 +37,14 @@ impl<const D: usize> TensorTlsMapping<D> {
                     if !active[cell] {
                         continue;
                     }
-                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                    let index = cell_axes(&basis.grid, cell);
+                    let GaussCell {
+                        taylor,
+                        index,
+                        points,
+                        uniform,
+                    } = GaussCell::new(basis, rule, cell, lo[cell], hi[cell], &mut quadrature);
                     let fits = &vector[cell * D..(cell + 1) * D];
-                    let points = BoxRule::new(rule, lo[cell], hi[cell]);
-                    if quadrature.set_cell(basis, index, &points.x, rule.len) {
+                    if uniform {
                         values.clear();
                         points.for_each(|x, w| {
                             let t = taylor.terms(x);
@@ -107,12 +109,14 @@ impl<const D: usize> TensorTlsMapping<D> {
                     if !active[cell] {
                         continue;
                     }
-                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                    let index = cell_axes(&basis.grid, cell);
+                    let GaussCell {
+                        taylor,
+                        index,
+                        points,
+                        uniform,
+                    } = GaussCell::new(basis, rule, cell, lo[cell], hi[cell], &mut quadrature);
                     let fits = &stress[cell * ns..(cell + 1) * ns];
                     let body = &vector[cell * D..(cell + 1) * D];
-                    let points = BoxRule::new(rule, lo[cell], hi[cell]);
-                    let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
                     mass_values.clear();
                     for column in stress_values.iter_mut() {
                         column.clear();

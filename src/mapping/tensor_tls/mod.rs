@@ -128,6 +128,41 @@ impl<const D: usize> BoxRule<D> {
     }
 }
 
+/// One active cell's Taylor box, Gauss points and axis indices, with its basis functions
+/// at the points evaluated into a [`CellQuadrature`].
+struct GaussCell<const D: usize> {
+    taylor: TaylorBox<D>,
+    index: [usize; D],
+    points: BoxRule<D>,
+    /// The support is the same at every point: integrate sum-factorised with the
+    /// quadrature; otherwise point by point.
+    uniform: bool,
+}
+
+impl<const D: usize> GaussCell<D> {
+    /// The cell `cell` of box `[lo, hi]` with `rule` mapped onto it, its functions set in
+    /// `quadrature`.
+    #[inline]
+    fn new<B: Basis>(
+        basis: &TensorBasis<D, B>,
+        rule: &GaussRule,
+        cell: usize,
+        lo: [f64; D],
+        hi: [f64; D],
+        quadrature: &mut CellQuadrature<D>,
+    ) -> Self {
+        let index = cell_axes(&basis.grid, cell);
+        let points = BoxRule::new(rule, lo, hi);
+        let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
+        Self {
+            taylor: TaylorBox::new(lo, hi),
+            index,
+            points,
+            uniform,
+        }
+    }
+}
+
 /// The TLS mapping of the dimension-generic core.
 #[derive(Clone, Debug)]
 pub struct TensorTlsMapping<const D: usize> {
@@ -245,10 +280,12 @@ impl<const D: usize> TensorTlsMapping<D> {
                 if !active[cell] {
                     continue;
                 }
-                let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                let index = cell_axes(&basis.grid, cell);
-                let points = BoxRule::new(rule, lo[cell], hi[cell]);
-                let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
+                let GaussCell {
+                    taylor,
+                    index,
+                    points,
+                    uniform,
+                } = GaussCell::new(basis, rule, cell, lo[cell], hi[cell], &mut quadrature);
                 if uniform {
                     weights.clear();
                     points.for_each(|x, w| {
