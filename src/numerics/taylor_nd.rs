@@ -191,6 +191,19 @@ fn packed(i: usize, k: usize) -> usize {
     i * (i - 1) / 2 + k
 }
 
+impl Default for Factor {
+    /// An empty factor (no terms: every coefficient 0), to be filled by
+    /// [`fit_degree_into`].
+    fn default() -> Self {
+        Self {
+            first: 0,
+            terms: 0,
+            l: [0.0; PACKED],
+            inv_d: [0.0; MAX_TERMS],
+        }
+    }
+}
+
 impl Factor {
     /// Taylor terms the fit uses.
     pub fn terms(&self) -> usize {
@@ -247,28 +260,28 @@ pub fn factor<const D: usize>(
     first: usize,
     terms: usize,
 ) -> Option<Factor> {
-    let (f, passed) = factor_prefix(normal, first, terms);
+    let mut f = Factor::default();
+    let passed = factor_prefix(normal, first, terms, &mut f);
     (passed == terms.saturating_sub(first)).then_some(f)
 }
 
 /// Factor the block `first..terms` of `normal` row by row up to the first pivot that
-/// fails the test; returns the factor and the number of rows that passed. The factor of a
-/// leading block is the leading block of the factor, so the rows that passed are the
-/// factor of every smaller degree (bitwise: row `i` uses only rows `< i`).
+/// fails the test, into `f` (in place: a factor is 57 numbers, and moving it out of the
+/// per-cell fits cost a `memmove` per fit); returns the number of rows that passed. The
+/// factor of a leading block is the leading block of the factor, so the rows that passed
+/// are the factor of every smaller degree (bitwise: row `i` uses only rows `< i`). Only the
+/// entries of the rows that passed are read later, so `f`'s other entries are not cleared.
 fn factor_prefix<const D: usize>(
     normal: &NormalMatrix<D>,
     first: usize,
     terms: usize,
-) -> (Factor, usize) {
+    f: &mut Factor,
+) -> usize {
     let moments = even_moments::<D>();
     let count = normal.count.max(1) as f64;
     let n = terms.saturating_sub(first);
-    let mut f = Factor {
-        first,
-        terms,
-        l: [0.0; PACKED],
-        inv_d: [0.0; MAX_TERMS],
-    };
+    f.first = first;
+    f.terms = terms;
     let mut d = [0.0; MAX_TERMS];
     let entry = |i: usize, j: usize| {
         let (r, c) = (first + i.min(j), first + i.max(j));
@@ -287,12 +300,12 @@ fn factor_prefix<const D: usize>(
             pivot -= f.l[packed(i, k)] * f.l[packed(i, k)] * d[k];
         }
         if pivot.is_nan() || pivot < MIN_SPREAD * count * moments[first + i] {
-            return (f, i);
+            return i;
         }
         d[i] = pivot;
         f.inv_d[i] = 1.0 / pivot;
     }
-    (f, n)
+    n
 }
 
 /// The factor of the highest degree `q <= max_degree` whose block passes the test, for a
@@ -304,16 +317,30 @@ pub fn fit_degree<const D: usize>(
     conservative: bool,
     max_degree: usize,
 ) -> (Factor, usize) {
+    let mut f = Factor::default();
+    let q = fit_degree_into(normal, conservative, max_degree, &mut f);
+    (f, q)
+}
+
+/// [`fit_degree`] into a reused factor `f` (the per-cell fits keep one per task); returns
+/// the degree.
+#[inline]
+pub fn fit_degree_into<const D: usize>(
+    normal: &NormalMatrix<D>,
+    conservative: bool,
+    max_degree: usize,
+    f: &mut Factor,
+) -> usize {
     let first = usize::from(conservative);
-    let (mut f, passed) = factor_prefix(normal, first, terms(D, max_degree));
+    let passed = factor_prefix(normal, first, terms(D, max_degree), f);
     for q in (0..=max_degree).rev() {
         if terms(D, q) - first <= passed {
             f.terms = terms(D, q);
-            return (f, q);
+            return q;
         }
     }
     f.terms = first;
-    (f, 0)
+    0
 }
 
 #[cfg(test)]

@@ -11,7 +11,9 @@ use super::cells::{box_volume, limit_density};
 use super::{stress_components, BoxRule, TensorTlsMapping, CELLS_PER_TASK, MAX_DEGREE};
 use crate::error::Result;
 use crate::mapping::RemedyCounts;
-use crate::numerics::taylor_nd::{add_rhs, fit_degree, NormalMatrix, TaylorBox, MAX_TERMS};
+use crate::numerics::taylor_nd::{
+    add_rhs, fit_degree_into, Factor, NormalMatrix, TaylorBox, MAX_TERMS,
+};
 use crate::particles::tensor::stress_index;
 use crate::particles::TensorParticles;
 use rayon::prelude::*;
@@ -39,54 +41,61 @@ impl<const D: usize> TensorTlsMapping<D> {
             .zip(self.vector.par_chunks_mut(D))
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .map(|(cell, ((stress, density), body_fits))| {
-                if !active[cell] {
-                    stress.fill([0.0; MAX_TERMS]);
-                    *density = [0.0; MAX_TERMS];
-                    body_fits.fill([0.0; MAX_TERMS]);
-                    return RemedyCounts::default();
-                }
-                let taylor = TaylorBox::new(lo[cell], hi[cell]);
-                let mut normal = NormalMatrix::<D>::default();
-                let mut stress_rhs = [[0.0; MAX_TERMS]; 6];
-                let mut density_rhs = [0.0; MAX_TERMS];
-                let mut body_rhs = [[0.0; MAX_TERMS]; D];
-                for p in cell_start[cell]..cell_start[cell + 1] {
-                    let t = taylor.terms(particles.position(p));
-                    normal.add(&t);
-                    for (rhs, &(a, c)) in stress_rhs.iter_mut().zip(&components) {
-                        add_rhs::<D>(rhs, &t, particles.stress[stress_index(a, c)][p]);
+            .map_init(
+                || (Factor::default(), Factor::default()),
+                |(full, conservative), (cell, ((stress, density), body_fits))| {
+                    if !active[cell] {
+                        stress.fill([0.0; MAX_TERMS]);
+                        *density = [0.0; MAX_TERMS];
+                        body_fits.fill([0.0; MAX_TERMS]);
+                        return RemedyCounts::default();
                     }
-                    add_rhs::<D>(&mut density_rhs, &t, particles.density(p));
-                    if let Some(b) = body {
-                        for a in 0..D {
-                            add_rhs::<D>(&mut body_rhs[a], &t, particles.density(p) * b[a][p]);
+                    let taylor = TaylorBox::new(lo[cell], hi[cell]);
+                    let mut normal = NormalMatrix::<D>::default();
+                    let mut stress_rhs = [[0.0; MAX_TERMS]; 6];
+                    let mut density_rhs = [0.0; MAX_TERMS];
+                    let mut body_rhs = [[0.0; MAX_TERMS]; D];
+                    for p in cell_start[cell]..cell_start[cell + 1] {
+                        let t = taylor.terms(particles.position(p));
+                        normal.add(&t);
+                        for (rhs, &(a, c)) in stress_rhs.iter_mut().zip(&components) {
+                            add_rhs::<D>(rhs, &t, particles.stress[stress_index(a, c)][p]);
+                        }
+                        add_rhs::<D>(&mut density_rhs, &t, particles.density(p));
+                        if let Some(b) = body {
+                            for a in 0..D {
+                                add_rhs::<D>(&mut body_rhs[a], &t, particles.density(p) * b[a][p]);
+                            }
                         }
                     }
-                }
-                let (full, q_full) = fit_degree(&normal, false, MAX_DEGREE);
-                let (conservative, q_cons) = fit_degree(&normal, true, conservative_degree);
-                for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
-                    *a = full.solve(&normal, rhs, 0.0);
-                }
-                let volume = box_volume(&lo[cell], &hi[cell]);
-                let a1 = totals[cell][0] / volume;
-                *density = conservative.solve(&normal, &density_rhs, a1);
-                let density_limited_fits =
-                    limit_density(&taylor, &BoxRule::new(rule, lo[cell], hi[cell]), density);
-                if body.is_some() {
-                    for a in 0..D {
-                        body_fits[a] =
-                            conservative.solve(&normal, &body_rhs[a], totals[cell][1 + a] / volume);
+                    let q_full = fit_degree_into(&normal, false, MAX_DEGREE, full);
+                    let q_cons = fit_degree_into(&normal, true, conservative_degree, conservative);
+                    for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
+                        *a = full.solve(&normal, rhs, 0.0);
                     }
-                }
-                let reduced = u64::from(q_full < MAX_DEGREE)
-                    + u64::from(q_cons < conservative_degree) * if body.is_some() { 2 } else { 1 };
-                RemedyCounts {
-                    density_limited_fits,
-                    ..RemedyCounts::order_reduced(reduced)
-                }
-            })
+                    let volume = box_volume(&lo[cell], &hi[cell]);
+                    let a1 = totals[cell][0] / volume;
+                    *density = conservative.solve(&normal, &density_rhs, a1);
+                    let density_limited_fits =
+                        limit_density(&taylor, &BoxRule::new(rule, lo[cell], hi[cell]), density);
+                    if body.is_some() {
+                        for a in 0..D {
+                            body_fits[a] = conservative.solve(
+                                &normal,
+                                &body_rhs[a],
+                                totals[cell][1 + a] / volume,
+                            );
+                        }
+                    }
+                    let reduced = u64::from(q_full < MAX_DEGREE)
+                        + u64::from(q_cons < conservative_degree)
+                            * if body.is_some() { 2 } else { 1 };
+                    RemedyCounts {
+                        density_limited_fits,
+                        ..RemedyCounts::order_reduced(reduced)
+                    }
+                },
+            )
             .sum();
         self.remedies += counts;
     }
@@ -113,7 +122,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             .par_chunks_mut(D)
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .map(|(cell, fits)| {
+            .map_init(Factor::default, |conservative, (cell, fits)| {
                 if !active[cell] {
                     fits.fill([0.0; MAX_TERMS]);
                     return RemedyCounts::default();
@@ -128,7 +137,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                         add_rhs::<D>(&mut rhs[a], &t, particles.density(p) * values[a][p]);
                     }
                 }
-                let (conservative, q) = fit_degree(&normal, true, conservative_degree);
+                let q = fit_degree_into(&normal, true, conservative_degree, conservative);
                 let volume = box_volume(&lo[cell], &hi[cell]);
                 for a in 0..D {
                     fits[a] = conservative.solve(&normal, &rhs[a], totals[cell][a] / volume);
