@@ -192,8 +192,7 @@ fn packed(i: usize, k: usize) -> usize {
 }
 
 impl Default for Factor {
-    /// An empty factor (no terms: every coefficient 0), to be filled by
-    /// [`fit_degree_into`].
+    /// An empty factor (no terms: every coefficient 0), to be filled by [`fit_degree`].
     fn default() -> Self {
         Self {
             first: 0,
@@ -312,20 +311,11 @@ fn factor_prefix<const D: usize>(
 /// full (`conservative = false`) or conservative fit, from one factorisation of the
 /// largest block. A conservative fit of degree 0 has nothing to fit and always succeeds; a
 /// full fit without points falls back to an empty factor (all coefficients 0).
-pub fn fit_degree<const D: usize>(
-    normal: &NormalMatrix<D>,
-    conservative: bool,
-    max_degree: usize,
-) -> (Factor, usize) {
-    let mut f = Factor::default();
-    let q = fit_degree_into(normal, conservative, max_degree, &mut f);
-    (f, q)
-}
-
-/// [`fit_degree`] into a reused factor `f` (the per-cell fits keep one per task); returns
-/// the degree.
+///
+/// The factor goes into `f`, which may be reused from an earlier fit (the per-cell fits keep
+/// one per task): what the earlier fit left there is never read. Returns the degree.
 #[inline]
-pub fn fit_degree_into<const D: usize>(
+pub fn fit_degree<const D: usize>(
     normal: &NormalMatrix<D>,
     conservative: bool,
     max_degree: usize,
@@ -347,6 +337,17 @@ pub fn fit_degree_into<const D: usize>(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// [`fit_degree`] into a fresh factor.
+    fn fitted<const D: usize>(
+        normal: &NormalMatrix<D>,
+        conservative: bool,
+        max_degree: usize,
+    ) -> (Factor, usize) {
+        let mut f = Factor::default();
+        let q = fit_degree(normal, conservative, max_degree, &mut f);
+        (f, q)
+    }
 
     fn polynomial<const D: usize>(cell: &TaylorBox<D>, coefficients: &[f64], x: [f64; D]) -> f64 {
         cell.eval(coefficients, x)
@@ -391,15 +392,15 @@ mod tests {
             normal.add(&cell.terms([x, 0.5]));
         }
         // All at y = 0.5: no y information, even for the linear terms.
-        assert_eq!(fit_degree(&normal, false, 2).1, 0);
-        assert_eq!(fit_degree(&normal, true, 2).1, 0);
+        assert_eq!(fitted(&normal, false, 2).1, 0);
+        assert_eq!(fitted(&normal, true, 2).1, 0);
         let mut normal = NormalMatrix::<2>::default();
         for (x, y) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
             normal.add(&cell.terms([x, y]));
         }
         // Four points: linear but not quadratic.
-        assert_eq!(fit_degree(&normal, false, 2).1, 1);
-        assert_eq!(fit_degree(&normal, true, 2).1, 1);
+        assert_eq!(fitted(&normal, false, 2).1, 1);
+        assert_eq!(fitted(&normal, true, 2).1, 1);
     }
 
     proptest! {
@@ -430,17 +431,55 @@ mod tests {
                     }
                 }
             }
-            let (full, q) = fit_degree(&normal, false, 2);
+            let (full, q) = fitted(&normal, false, 2);
             prop_assert_eq!(q, 2);
             let a = full.solve(&normal, &rhs, 0.0);
             for i in 0..10 {
                 prop_assert!((a[i] - c[i]).abs() < 1e-9, "full {i}: {} vs {}", a[i], c[i]);
             }
-            let (cons, q) = fit_degree(&normal, true, 2);
+            let (cons, q) = fitted(&normal, true, 2);
             prop_assert_eq!(q, 2);
             let a = cons.solve(&normal, &rhs, c[0]);
             for i in 0..10 {
                 prop_assert!((a[i] - c[i]).abs() < 1e-9, "conservative {i}");
+            }
+        }
+
+        /// A factor reused from a full quadratic fit gives bit for bit the fit of a fresh
+        /// one for the next cell, also when that cell is degenerate (1-3 points, or all
+        /// on one line) and its degree drops.
+        #[test]
+        fn a_reused_factor_fits_as_a_fresh_one(
+            spread in proptest::collection::vec((-1.0f64..1.0, -1.0f64..1.0), 6..20),
+            next in proptest::collection::vec((-1.0f64..1.0, -1.0f64..1.0), 1..8),
+            on_line in proptest::bool::ANY,
+            values in proptest::collection::vec(-2.0f64..2.0, 8),
+        ) {
+            let cell = TaylorBox::new([0.0, 0.0], [1.0, 1.0]);
+            let point = |(s, r): (f64, f64)| [0.5 + 0.5 * s, 0.5 + 0.5 * r];
+            let mut first = NormalMatrix::<2>::default();
+            for &p in &spread {
+                first.add(&cell.terms(point(p)));
+            }
+            let mut normal = NormalMatrix::<2>::default();
+            let mut rhs = [0.0; MAX_TERMS];
+            for (i, &(s, r)) in next.iter().enumerate() {
+                let x = point((s, if on_line { 0.3 } else { r }));
+                let t = cell.terms(x);
+                normal.add(&t);
+                add_rhs::<2>(&mut rhs, &t, values[i]);
+            }
+            for conservative in [false, true] {
+                let mut reused = Factor::default();
+                fit_degree(&first, conservative, 2, &mut reused);
+                let q_reused = fit_degree(&normal, conservative, 2, &mut reused);
+                let (fresh, q_fresh) = fitted(&normal, conservative, 2);
+                prop_assert_eq!(q_reused, q_fresh);
+                let a = reused.solve(&normal, &rhs, 0.7);
+                let b = fresh.solve(&normal, &rhs, 0.7);
+                for i in 0..MAX_TERMS {
+                    prop_assert_eq!(a[i].to_bits(), b[i].to_bits(), "coefficient {}", i);
+                }
             }
         }
     }

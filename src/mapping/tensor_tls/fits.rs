@@ -11,9 +11,7 @@ use super::cells::{box_volume, limit_density};
 use super::{stress_components, BoxRule, TensorTlsMapping, CELLS_PER_TASK, MAX_DEGREE};
 use crate::error::Result;
 use crate::mapping::RemedyCounts;
-use crate::numerics::taylor_nd::{
-    add_rhs, fit_degree_into, Factor, NormalMatrix, TaylorBox, MAX_TERMS,
-};
+use crate::numerics::taylor_nd::{add_rhs, fit_degree, Factor, NormalMatrix, TaylorBox, MAX_TERMS};
 use crate::particles::tensor::stress_index;
 use crate::particles::TensorParticles;
 use rayon::prelude::*;
@@ -68,8 +66,8 @@ impl<const D: usize> TensorTlsMapping<D> {
                             }
                         }
                     }
-                    let q_full = fit_degree_into(&normal, false, MAX_DEGREE, full);
-                    let q_cons = fit_degree_into(&normal, true, conservative_degree, conservative);
+                    let q_full = fit_degree(&normal, false, MAX_DEGREE, full);
+                    let q_cons = fit_degree(&normal, true, conservative_degree, conservative);
                     for (a, rhs) in stress.iter_mut().zip(&stress_rhs) {
                         *a = full.solve(&normal, rhs, 0.0);
                     }
@@ -137,7 +135,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                         add_rhs::<D>(&mut rhs[a], &t, particles.density(p) * values[a][p]);
                     }
                 }
-                let q = fit_degree_into(&normal, true, conservative_degree, conservative);
+                let q = fit_degree(&normal, true, conservative_degree, conservative);
                 let volume = box_volume(&lo[cell], &hi[cell]);
                 for a in 0..D {
                     fits[a] = conservative.solve(&normal, &rhs[a], totals[cell][a] / volume);
