@@ -1,63 +1,85 @@
-//! The Gauss integration of the 2D/3D TLS fits against the basis (`docs/tls.md`):
+//! The integration of the 2D/3D TLS fits against the basis (`docs/tls.md`):
 //!
 //! ```text
-//! m_I = sum_g rho_hat(x_g) w_g phi_I(x_g)
-//! f_I = sum_g ( (rho b)_hat(x_g) phi_I(x_g) - sigma_hat(x_g) . grad phi_I(x_g) ) w_g
-//! p_I = sum_g (rho v)_hat(x_g) w_g phi_I(x_g)
+//! m_I = int_box rho_hat phi_I
+//! f_I = int_box (rho b)_hat phi_I - sigma_hat . grad phi_I
+//! p_I = int_box (rho v)_hat phi_I
 //! ```
 //!
-//! per active cell box, sum-factorised ([`CellQuadrature`]) where the basis is uniform over
-//! the cell, point by point otherwise; scattered per task of cells in a fixed order.
+//! per active cell box, from the 1D moments of the Taylor factors ([`CellMoments`], exact
+//! with the `(p + 2)`-point Gauss rule they are computed with), point by point over the
+//! Gauss points where the basis changes within a box; scattered per task of cells in a
+//! fixed order.
 
 // Index loops: the indices enter the formulas (axes).
 #![allow(clippy::needless_range_loop)]
 
-use super::cells::dot;
+use super::cells::{cell_axes, dot};
+use super::moments::{scratch_len, CellMoments};
 use super::{stress_components, GaussCell, TensorTlsMapping};
 use crate::grid::{Basis, TensorBasis, TensorShape};
-use crate::mapping::sum_factor::CellQuadrature;
 use std::ops::Range;
 
+/// The largest number of functions per axis of any cell.
+fn max_len<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> usize {
+    (0..D)
+        .map(|a| basis.axis(a).max_window())
+        .max()
+        .unwrap_or(1)
+}
+
 impl<const D: usize> TensorTlsMapping<D> {
-    /// `out_I = sum_g w_g v_hat(x_g) phi_I(x_g)` of the fitted vector density.
+    /// `out_I = int_box v_hat phi_I` of the fitted vector density.
     pub(super) fn integrate_vector<B: Basis, const N: usize>(
         &mut self,
         basis: &TensorBasis<D, B>,
         out: &mut [[f64; D]],
     ) {
         let strides = *basis.strides();
-        let (lo, hi, active, vector, rule) =
-            (&self.lo, &self.hi, &self.active, &self.vector, &self.rule);
+        let (lo, hi, active, vector, rule, moments) = (
+            &self.lo,
+            &self.hi,
+            &self.active,
+            &self.vector,
+            &self.rule,
+            &self.moments,
+        );
+        let grid = &basis.grid;
+        let len = max_len(basis);
         self.vector_scatter
             .scatter_cells(out, |cells: Range<usize>, first, local| {
                 let mut shape = TensorShape::<D>::default();
-                let mut quadrature = CellQuadrature::<D>::default();
-                let mut values = Vec::with_capacity(rule.len.pow(D as u32) * D);
+                let nodes = len.pow(D as u32);
+                let mut scratch = vec![0.0; scratch_len(len)];
+                let mut integral = vec![0.0; nodes];
+                let mut node_values = vec![[0.0; D]; nodes];
                 for cell in cells {
                     if !active[cell] {
+                        continue;
+                    }
+                    let fits = &vector[cell * D..(cell + 1) * D];
+                    if let Some(cell_moments) = CellMoments::new(moments, cell_axes(grid, cell)) {
+                        let n = cell_moments.nodes();
+                        let values = &mut node_values[..n];
+                        for a in 0..D {
+                            cell_moments.contract(&fits[a], None, &mut scratch, &mut integral);
+                            for (v, &r) in values.iter_mut().zip(&integral) {
+                                v[a] = r;
+                            }
+                        }
+                        cell_moments.for_each_node(&strides, |k, node| {
+                            let o = &mut local[node - first];
+                            for a in 0..D {
+                                o[a] += values[k][a];
+                            }
+                        });
                         continue;
                     }
                     let GaussCell {
                         taylor,
                         index,
                         points,
-                        uniform,
-                    } = GaussCell::new(basis, rule, cell, lo[cell], hi[cell], &mut quadrature);
-                    let fits = &vector[cell * D..(cell + 1) * D];
-                    if uniform {
-                        values.clear();
-                        points.for_each(|x, w| {
-                            let t = taylor.terms(x);
-                            values.extend((0..D).map(|a| dot::<D>(&fits[a], &t) * w));
-                        });
-                        quadrature.integrate(&values, D, None, &strides, |node, r| {
-                            let o = &mut local[node - first];
-                            for a in 0..D {
-                                o[a] += r[a];
-                            }
-                        });
-                        continue;
-                    }
+                    } = GaussCell::new(grid, rule, cell, lo[cell], hi[cell]);
                     points.for_each(|x, w| {
                         basis.eval_particle(index, x, [0.0; D], &mut shape);
                         let t = taylor.terms(x);
@@ -84,7 +106,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         let strides = *basis.strides();
         let components = stress_components::<D>();
         let ns = components.len();
-        let (lo, hi, active, stress, density, vector, rule) = (
+        let (lo, hi, active, stress, density, vector, rule, moments) = (
             &self.lo,
             &self.hi,
             &self.active,
@@ -92,35 +114,67 @@ impl<const D: usize> TensorTlsMapping<D> {
             &self.density,
             &self.vector,
             &self.rule,
+            &self.moments,
         );
         let components = &components;
+        let grid = &basis.grid;
+        let len = max_len(basis);
         self.mass_force
             .scatter_cells(out, |cells: Range<usize>, first, local| {
                 let mut shape = TensorShape::<D>::default();
-                let mut quadrature = CellQuadrature::<D>::default();
-                let count = rule.len.pow(D as u32);
-                // Per point: mass and body weights (1 + D), then per derivative axis c the
-                // stress column sigma_(a c) w (D each).
-                let mut mass_values = Vec::with_capacity(count * (1 + D));
-                let mut stress_values: [Vec<f64>; D] =
-                    std::array::from_fn(|_| Vec::with_capacity(count * D));
-                let mass_width = if with_body { 1 + D } else { 1 };
+                let nodes = len.pow(D as u32);
+                let mut scratch = vec![0.0; scratch_len(len)];
+                let mut integral = vec![0.0; nodes];
+                // Per node: the mass, then the force components.
+                let mut node_values = vec![[0.0; 4]; nodes];
                 for cell in cells {
                     if !active[cell] {
+                        continue;
+                    }
+                    let fits = &stress[cell * ns..(cell + 1) * ns];
+                    let body = &vector[cell * D..(cell + 1) * D];
+                    if let Some(cell_moments) = CellMoments::new(moments, cell_axes(grid, cell)) {
+                        let n = cell_moments.nodes();
+                        let values = &mut node_values[..n];
+                        cell_moments.contract(&density[cell], None, &mut scratch, &mut integral);
+                        for (v, &r) in values.iter_mut().zip(&integral) {
+                            *v = [r, 0.0, 0.0, 0.0];
+                        }
+                        if with_body {
+                            for a in 0..D {
+                                cell_moments.contract(&body[a], None, &mut scratch, &mut integral);
+                                for (v, &r) in values.iter_mut().zip(&integral) {
+                                    v[1 + a] = r;
+                                }
+                            }
+                        }
+                        // sigma_(ac) enters f_a with d/dx_c and, off the diagonal, f_c
+                        // with d/dx_a.
+                        for (fit, &(a, c)) in fits.iter().zip(components) {
+                            cell_moments.contract(fit, Some(c), &mut scratch, &mut integral);
+                            for (v, &r) in values.iter_mut().zip(&integral) {
+                                v[1 + a] -= r;
+                            }
+                            if a != c {
+                                cell_moments.contract(fit, Some(a), &mut scratch, &mut integral);
+                                for (v, &r) in values.iter_mut().zip(&integral) {
+                                    v[1 + c] -= r;
+                                }
+                            }
+                        }
+                        cell_moments.for_each_node(&strides, |k, node| {
+                            let o = &mut local[node - first];
+                            for j in 0..=D {
+                                o[j] += values[k][j];
+                            }
+                        });
                         continue;
                     }
                     let GaussCell {
                         taylor,
                         index,
                         points,
-                        uniform,
-                    } = GaussCell::new(basis, rule, cell, lo[cell], hi[cell], &mut quadrature);
-                    let fits = &stress[cell * ns..(cell + 1) * ns];
-                    let body = &vector[cell * D..(cell + 1) * D];
-                    mass_values.clear();
-                    for column in stress_values.iter_mut() {
-                        column.clear();
-                    }
+                    } = GaussCell::new(grid, rule, cell, lo[cell], hi[cell]);
                     points.for_each(|x, w| {
                         let t = taylor.terms(x);
                         let mut sw = [[0.0; D]; D];
@@ -137,16 +191,6 @@ impl<const D: usize> TensorTlsMapping<D> {
                                 0.0
                             }
                         });
-                        if uniform {
-                            mass_values.push(rw);
-                            if with_body {
-                                mass_values.extend_from_slice(&bw);
-                            }
-                            for c in 0..D {
-                                stress_values[c].extend((0..D).map(|a| sw[a][c]));
-                            }
-                            return;
-                        }
                         basis.eval_particle(index, x, [0.0; D], &mut shape);
                         shape.for_each_node_n::<N>(&strides, |node, phi, grad| {
                             let o = &mut local[node - first];
@@ -160,26 +204,6 @@ impl<const D: usize> TensorTlsMapping<D> {
                             }
                         });
                     });
-                    if !uniform {
-                        continue;
-                    }
-                    quadrature.integrate(&mass_values, mass_width, None, &strides, |node, r| {
-                        let o = &mut local[node - first];
-                        o[0] += r[0];
-                        if with_body {
-                            for a in 0..D {
-                                o[1 + a] += r[1 + a];
-                            }
-                        }
-                    });
-                    for c in 0..D {
-                        quadrature.integrate(&stress_values[c], D, Some(c), &strides, |node, r| {
-                            let o = &mut local[node - first];
-                            for a in 0..D {
-                                o[1 + a] -= r[a];
-                            }
-                        });
-                    }
                 }
             });
     }

@@ -128,37 +128,27 @@ impl<const D: usize> BoxRule<D> {
     }
 }
 
-/// One active cell's Taylor box, Gauss points and axis indices, with its basis functions
-/// at the points evaluated into a [`CellQuadrature`].
+/// One active cell's Taylor box, axis indices and Gauss points.
 struct GaussCell<const D: usize> {
     taylor: TaylorBox<D>,
     index: [usize; D],
     points: BoxRule<D>,
-    /// The support is the same at every point: integrate sum-factorised with the
-    /// quadrature; otherwise point by point.
-    uniform: bool,
 }
 
 impl<const D: usize> GaussCell<D> {
-    /// The cell `cell` of box `[lo, hi]` with `rule` mapped onto it, its functions set in
-    /// `quadrature`.
+    /// The cell `cell` of `grid` with box `[lo, hi]` and `rule` mapped onto it.
     #[inline]
-    fn new<B: Basis>(
-        basis: &TensorBasis<D, B>,
+    fn new(
+        grid: &TensorGrid<D>,
         rule: &GaussRule,
         cell: usize,
         lo: [f64; D],
         hi: [f64; D],
-        quadrature: &mut CellQuadrature<D>,
     ) -> Self {
-        let index = cell_axes(&basis.grid, cell);
-        let points = BoxRule::new(rule, lo, hi);
-        let uniform = quadrature.set_cell(basis, index, &points.x, rule.len);
         Self {
             taylor: TaylorBox::new(lo, hi),
-            index,
-            points,
-            uniform,
+            index: cell_axes(grid, cell),
+            points: BoxRule::new(rule, lo, hi),
         }
     }
 }
@@ -176,6 +166,9 @@ pub struct TensorTlsMapping<const D: usize> {
     lo: Vec<[f64; D]>,
     hi: Vec<[f64; D]>,
     active: Vec<bool>,
+    /// Per axis, the moments of the Taylor factors against the basis on the boxes of the
+    /// last mapping (`moments.rs`).
+    moments: [AxisMoments; D],
     /// `3^D` shares `[f64; 4]` per cell (`"domains"` only): what the cell's particles give
     /// to the neighbour at offset `k` (base-3 digits `o_a + 1`).
     shares: Vec<[f64; 4]>,
@@ -227,6 +220,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             lo: vec![[0.0; D]; cells],
             hi: vec![[0.0; D]; cells],
             active: vec![false; cells],
+            moments: std::array::from_fn(|_| AxisMoments::default()),
             shares: Vec::new(),
             cell_totals: vec![[0.0; 4]; cells],
             stress: vec![[0.0; MAX_TERMS]; cells * stress_components::<D>().len()],
@@ -284,9 +278,8 @@ impl<const D: usize> TensorTlsMapping<D> {
                     taylor,
                     index,
                     points,
-                    uniform,
-                } = GaussCell::new(basis, rule, cell, lo[cell], hi[cell], &mut quadrature);
-                if uniform {
+                } = GaussCell::new(&basis.grid, rule, cell, lo[cell], hi[cell]);
+                if quadrature.set_cell(basis, index, &points.x, rule.len) {
                     weights.clear();
                     points.for_each(|x, w| {
                         weights.push(dot::<D>(&density[cell], &taylor.terms(x)) * w);
@@ -320,9 +313,14 @@ impl<const D: usize> TensorTlsMapping<D> {
         half_lengths(particles, &Some(self.half_length0), p)
     }
 
-    /// Material extent (over all ranks) and active boxes (of this rank's cells) from the
-    /// current particles.
-    fn update_boxes(&mut self, particles: &TensorParticles<D>, cell_start: &[usize]) -> Result<()> {
+    /// Material extent (over all ranks), active boxes (of this rank's cells) and their
+    /// moments from the current particles.
+    fn update_boxes<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        cell_start: &[usize],
+    ) -> Result<()> {
         let n = particles.len();
         let this = &*self;
         let (lo_ext, hi_ext) = (0..n)
@@ -361,6 +359,9 @@ impl<const D: usize> TensorTlsMapping<D> {
                 lo_ext[a] = extent[a];
                 hi_ext[a] = -extent[3 + a];
             }
+        }
+        for a in 0..D {
+            self.moments[a].update(basis, a, &self.rule, lo_ext[a], hi_ext[a]);
         }
         let grid = self.grid;
         let require_particles = self.totals == CellTotals::Centres;
@@ -499,7 +500,7 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
     ) -> Result<()> {
-        self.update_boxes(particles, cell_start)?;
+        self.update_boxes(basis, particles, cell_start)?;
         let per_particle = match body {
             TensorBody::PerParticle(b) => Some(b),
             TensorBody::Uniform(_) => None,
@@ -659,7 +660,9 @@ fn update_velocities<const D: usize, B: Basis, const N: usize>(
 mod cells;
 mod fits;
 mod integrate;
+mod moments;
 use cells::{cell_axes, dot, split_shares};
+use moments::AxisMoments;
 
 #[cfg(test)]
 mod consistent_tests;
