@@ -18,7 +18,6 @@ pub mod scatter;
 #[cfg(test)]
 pub(crate) mod spectrum;
 pub mod subpoints;
-pub mod sum_factor;
 pub mod tensor;
 pub mod tensor_direct;
 pub mod tensor_kernels;

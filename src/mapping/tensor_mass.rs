@@ -14,9 +14,9 @@
 //! columns ascending) is built once. The result is bitwise identical for any thread
 //! count.
 //!
-//! A cell's block is added in one call, sum-factorised
-//! ([`super::sum_factor::CellQuadrature::add_mass`]),
-//! or point by point ([`StencilRows::add_outer`]) where the support changes inside a cell.
+//! A cell's block is added in one call ([`StencilRows::add_block`], the block from the
+//! moments of the TLS density fit), or point by point ([`StencilRows::add_outer`]) where the
+//! support changes inside a cell.
 
 use super::tensor_scatter::{scatter_tasks, ScatterTask};
 use crate::grid::{Basis, TensorBasis, TensorShape};
@@ -36,6 +36,47 @@ pub struct StencilRows<'a, const D: usize> {
 pub const MAX_SUPPORT_NODES: usize = 512;
 
 impl<const D: usize> StencilRows<'_, D> {
+    /// `M_IJ += block[..]` for the nodes of a tensor support with `len[a]` functions from
+    /// `first[a]` per axis (at most `reach + 1`); `block` is laid out
+    /// `[pair_(D-1)] ... [pair_0]`, `pair_a = i_a len_a + j_a` with `i` the row and `j`
+    /// the column: an odometer over `(j_0, i_0, j_1, i_1, ...)`, `j` fastest.
+    #[inline]
+    pub fn add_block(
+        &mut self,
+        first: &[usize; D],
+        len: &[usize; D],
+        strides: &[usize; D],
+        block: &[f64],
+    ) {
+        let side = 2 * self.reach + 1;
+        let mut slot_scale = [1usize; D];
+        for a in 1..D {
+            slot_scale[a] = slot_scale[a - 1] * side;
+        }
+        let (mut i, mut j) = ([0usize; D], [0usize; D]);
+        for &value in block {
+            let mut row = 0;
+            let mut slot = 0;
+            for a in 0..D {
+                row += (first[a] + i[a]) * strides[a];
+                slot += (j[a] + self.reach - i[a]) * slot_scale[a];
+            }
+            self.values[(row - self.lo) * self.width + slot] += value;
+            for a in 0..D {
+                j[a] += 1;
+                if j[a] < len[a] {
+                    break;
+                }
+                j[a] = 0;
+                i[a] += 1;
+                if i[a] < len[a] {
+                    break;
+                }
+                i[a] = 0;
+            }
+        }
+    }
+
     /// `M_IJ += weight phi_I phi_J` for every pair of nodes of `shape` (whose support
     /// fits the stencil: at most `reach + 1` functions per axis).
     #[inline]

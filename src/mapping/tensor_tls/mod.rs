@@ -45,7 +45,6 @@
 // Index loops: the indices enter the formulas (terms, axes, LDL^T rows).
 #![allow(clippy::needless_range_loop)]
 
-use super::sum_factor::CellQuadrature;
 use super::tensor::{SlabCells, TensorMapping};
 use super::tensor_direct::{half_lengths, split_components, TensorBody, TensorGridFields};
 use super::tensor_mass::{StencilAssembly, MAX_SUPPORT_NODES};
@@ -265,33 +264,38 @@ impl<const D: usize> TensorTlsMapping<D> {
         let strides = *basis.strides();
         let (lo, hi, active, density, rule) =
             (&self.lo, &self.hi, &self.active, &self.density, &self.rule);
+        let (moments, grid) = (&self.moments, &basis.grid);
+        let len = (0..D)
+            .map(|a| basis.axis(a).max_window())
+            .max()
+            .unwrap_or(1);
         assembly.assemble(|cells, rows| {
             let mut shape = TensorShape::<D>::default();
-            // Per task: the sum-factorised cell block and the point weights.
-            let mut quadrature = CellQuadrature::<D>::default();
-            let mut weights = Vec::with_capacity(rule.len.pow(D as u32));
+            // Per task: the scratch of the contractions and the cell block.
+            let mut scratch = vec![0.0; moments::scratch_len(len * len)];
+            let mut block = vec![0.0; len.pow(2 * D as u32)];
             for cell in cells {
                 if !active[cell] {
+                    continue;
+                }
+                if let Some(cell_moments) = CellMoments::new(moments, cell_axes(grid, cell)) {
+                    let n = cell_moments.nodes();
+                    let block = &mut block[..n * n];
+                    cell_moments.contract_mass(&density[cell], &mut scratch, block);
+                    let (first, lens) = cell_moments.support();
+                    rows.add_block(&first, &lens, &strides, block);
                     continue;
                 }
                 let GaussCell {
                     taylor,
                     index,
                     points,
-                } = GaussCell::new(&basis.grid, rule, cell, lo[cell], hi[cell]);
-                if quadrature.set_cell(basis, index, &points.x, rule.len) {
-                    weights.clear();
-                    points.for_each(|x, w| {
-                        weights.push(dot::<D>(&density[cell], &taylor.terms(x)) * w);
-                    });
-                    quadrature.add_mass(rows, &strides, &weights);
-                } else {
-                    points.for_each(|x, w| {
-                        basis.eval_particle(index, x, [0.0; D], &mut shape);
-                        let rw = dot::<D>(&density[cell], &taylor.terms(x)) * w;
-                        rows.add_outer(&shape, &strides, rw);
-                    });
-                }
+                } = GaussCell::new(grid, rule, cell, lo[cell], hi[cell]);
+                points.for_each(|x, w| {
+                    basis.eval_particle(index, x, [0.0; D], &mut shape);
+                    let rw = dot::<D>(&density[cell], &taylor.terms(x)) * w;
+                    rows.add_outer(&shape, &strides, rw);
+                });
             }
         });
         self.assembly_seconds += start.elapsed().as_secs_f64();
@@ -662,7 +666,7 @@ mod fits;
 mod integrate;
 mod moments;
 use cells::{cell_axes, dot, split_shares};
-use moments::AxisMoments;
+use moments::{AxisMoments, CellMoments};
 
 #[cfg(test)]
 mod consistent_tests;

@@ -49,6 +49,8 @@ pub(super) struct AxisMoments {
     /// `phi[i * stride + l][d] = int f_d phi_l`, `dphi[..]` with `d phi_l / dx`.
     phi: Vec<[f64; FACTORS]>,
     dphi: Vec<[f64; FACTORS]>,
+    /// `pairs[i * stride^2 + l len_i + m][d] = int f_d phi_l phi_m` (the consistent mass).
+    pairs: Vec<[f64; FACTORS]>,
 }
 
 impl AxisMoments {
@@ -72,6 +74,8 @@ impl AxisMoments {
         self.uniform.resize(cells, false);
         self.phi.resize(cells * self.stride, [0.0; FACTORS]);
         self.dphi.resize(cells * self.stride, [0.0; FACTORS]);
+        let square = self.stride * self.stride;
+        self.pairs.resize(cells * square, [0.0; FACTORS]);
         let mut shape = Shape::default();
         for i in 0..cells {
             let left = grid.cell_left(i);
@@ -86,8 +90,10 @@ impl AxisMoments {
             let inv_half_width = 1.0 / half_width;
             let phi = &mut self.phi[i * self.stride..(i + 1) * self.stride];
             let dphi = &mut self.dphi[i * self.stride..(i + 1) * self.stride];
+            let pairs = &mut self.pairs[i * square..(i + 1) * square];
             phi.fill([0.0; FACTORS]);
             dphi.fill([0.0; FACTORS]);
+            pairs.fill([0.0; FACTORS]);
             let mut uniform = true;
             for (g, (x, w)) in rule.mapped(box_lo, box_hi).enumerate() {
                 axis.eval_particle(i, x, 0.0, &mut shape);
@@ -100,10 +106,17 @@ impl AxisMoments {
                 }
                 let s = (x - centre) * inv_half_width;
                 let f = [w, w * s, w * (0.5 * s * s - 1.0 / 6.0)];
-                for l in 0..shape.len {
+                let len = shape.len;
+                for l in 0..len {
                     for d in 0..FACTORS {
                         phi[l][d] += f[d] * shape.phi[l];
                         dphi[l][d] += f[d] * shape.dphi[l];
+                    }
+                    for m in 0..len {
+                        let product = shape.phi[l] * shape.phi[m];
+                        for d in 0..FACTORS {
+                            pairs[l * len + m][d] += f[d] * product;
+                        }
                     }
                 }
             }
@@ -118,6 +131,7 @@ pub(super) struct CellMoments<'a, const D: usize> {
     len: [usize; D],
     phi: [&'a [[f64; FACTORS]]; D],
     dphi: [&'a [[f64; FACTORS]]; D],
+    pairs: [&'a [[f64; FACTORS]]; D],
 }
 
 impl<'a, const D: usize> CellMoments<'a, D> {
@@ -129,6 +143,7 @@ impl<'a, const D: usize> CellMoments<'a, D> {
             len: [0; D],
             phi: [&[]; D],
             dphi: [&[]; D],
+            pairs: [&[]; D],
         };
         for a in 0..D {
             let m = &axes[a];
@@ -141,6 +156,8 @@ impl<'a, const D: usize> CellMoments<'a, D> {
             let slot = i * m.stride..i * m.stride + m.len[i];
             out.phi[a] = &m.phi[slot.clone()];
             out.dphi[a] = &m.dphi[slot];
+            let square = m.stride * m.stride;
+            out.pairs[a] = &m.pairs[i * square..i * square + m.len[i] * m.len[i]];
         }
         Some(out)
     }
@@ -154,7 +171,7 @@ impl<'a, const D: usize> CellMoments<'a, D> {
     /// `out[n] = int_box (sum_k a_k t_k) F_n`, `F = prod_a phi` with `dphi` on the axis
     /// `derivative`, for the nodes `n` of the cell in lexicographic order (x fastest);
     /// `out` holds at least [`Self::nodes`] values, `scratch` at least
-    /// `6 len_0 (1 + len_1)`.
+    /// [`scratch_len`]`(max_a len_a)`.
     #[inline]
     pub(super) fn contract(
         &self,
@@ -163,65 +180,28 @@ impl<'a, const D: usize> CellMoments<'a, D> {
         scratch: &mut [f64],
         out: &mut [f64],
     ) {
-        let table = |axis: usize| {
+        let tables: [&[[f64; FACTORS]]; D] = std::array::from_fn(|axis| {
             if derivative == Some(axis) {
                 self.dphi[axis]
             } else {
                 self.phi[axis]
             }
-        };
-        match D {
-            1 => {
-                for (o, x) in out.iter_mut().zip(table(0)) {
-                    *o = a[0] * x[0] + a[1] * x[1] + a[2] * x[2];
-                }
-            }
-            2 => {
-                // Terms: 1, s0, s1, f2(s0), s0 s1, f2(s1).
-                let (x_table, y_table) = (table(0), table(1));
-                let l0 = x_table.len();
-                let partial = &mut scratch[..3 * l0];
-                for (t, x) in partial.chunks_exact_mut(3).zip(x_table) {
-                    t[0] = a[0] * x[0] + a[1] * x[1] + a[3] * x[2];
-                    t[1] = a[2] * x[0] + a[4] * x[1];
-                    t[2] = a[5] * x[0];
-                }
-                for (row, y) in out.chunks_exact_mut(l0).zip(y_table) {
-                    for (o, t) in row.iter_mut().zip(partial.chunks_exact(3)) {
-                        *o = t[0] * y[0] + t[1] * y[1] + t[2] * y[2];
-                    }
-                }
-            }
-            _ => {
-                // Terms: 1, s0, s1, s2, f2(s0), s0 s1, s0 s2, f2(s1), s1 s2, f2(s2).
-                let (x_table, y_table, z_table) = (table(0), table(1), table(2));
-                let (l0, l1) = (x_table.len(), y_table.len());
-                let (first, second) = scratch.split_at_mut(6 * l0);
-                // first[i0][(d1, d2)]: (0,0), (1,0), (2,0), (0,1), (1,1), (0,2).
-                for (t, x) in first.chunks_exact_mut(6).zip(x_table) {
-                    t[0] = a[0] * x[0] + a[1] * x[1] + a[4] * x[2];
-                    t[1] = a[2] * x[0] + a[5] * x[1];
-                    t[2] = a[7] * x[0];
-                    t[3] = a[3] * x[0] + a[6] * x[1];
-                    t[4] = a[8] * x[0];
-                    t[5] = a[9] * x[0];
-                }
-                // second[i1][i0][d2]
-                let second = &mut second[..3 * l0 * l1];
-                for (plane, y) in second.chunks_exact_mut(3 * l0).zip(y_table) {
-                    for (s, t) in plane.chunks_exact_mut(3).zip(first.chunks_exact(6)) {
-                        s[0] = t[0] * y[0] + t[1] * y[1] + t[2] * y[2];
-                        s[1] = t[3] * y[0] + t[4] * y[1];
-                        s[2] = t[5] * y[0];
-                    }
-                }
-                for (block, z) in out.chunks_exact_mut(l0 * l1).zip(z_table) {
-                    for (o, s) in block.iter_mut().zip(second.chunks_exact(3)) {
-                        *o = s[0] * z[0] + s[1] * z[1] + s[2] * z[2];
-                    }
-                }
-            }
-        }
+        });
+        contract_tables(a, tables, scratch, out);
+    }
+
+    /// `out = M_cell`, `M_(IJ) = int_box (sum_k a_k t_k) phi_I phi_J` laid out
+    /// `[pair_(D-1)] ... [pair_0]`, `pair_a = i_a len_a + j_a` (`j` fastest): at least
+    /// `nodes^2` values; `scratch` at least [`scratch_len`]`(max_a len_a^2)`.
+    #[inline]
+    pub(super) fn contract_mass(&self, a: &[f64; MAX_TERMS], scratch: &mut [f64], out: &mut [f64]) {
+        contract_tables(a, self.pairs, scratch, out);
+    }
+
+    /// The first function and the number of functions per axis.
+    #[inline]
+    pub(super) fn support(&self) -> ([usize; D], [usize; D]) {
+        (self.first, self.len)
     }
 
     /// `visit(k, node)` for the nodes of the cell in the order of [`Self::contract`]'s
@@ -241,6 +221,69 @@ impl<'a, const D: usize> CellMoments<'a, D> {
                     break;
                 }
                 index[a] = 0;
+            }
+        }
+    }
+}
+
+/// `out[n] = sum_k a_k prod_a tables[a][n_a][d_a(k)]` for the entries `n` of the tables'
+/// product, axis 0 fastest, contracted one axis at a time (see the module doc).
+#[inline]
+fn contract_tables<const D: usize>(
+    a: &[f64; MAX_TERMS],
+    tables: [&[[f64; FACTORS]]; D],
+    scratch: &mut [f64],
+    out: &mut [f64],
+) {
+    match D {
+        1 => {
+            for (o, x) in out.iter_mut().zip(tables[0]) {
+                *o = a[0] * x[0] + a[1] * x[1] + a[2] * x[2];
+            }
+        }
+        2 => {
+            // Terms: 1, s0, s1, f2(s0), s0 s1, f2(s1).
+            let (x_table, y_table) = (tables[0], tables[1]);
+            let l0 = x_table.len();
+            let partial = &mut scratch[..3 * l0];
+            for (t, x) in partial.chunks_exact_mut(3).zip(x_table) {
+                t[0] = a[0] * x[0] + a[1] * x[1] + a[3] * x[2];
+                t[1] = a[2] * x[0] + a[4] * x[1];
+                t[2] = a[5] * x[0];
+            }
+            for (row, y) in out.chunks_exact_mut(l0).zip(y_table) {
+                for (o, t) in row.iter_mut().zip(partial.chunks_exact(3)) {
+                    *o = t[0] * y[0] + t[1] * y[1] + t[2] * y[2];
+                }
+            }
+        }
+        _ => {
+            // Terms: 1, s0, s1, s2, f2(s0), s0 s1, s0 s2, f2(s1), s1 s2, f2(s2).
+            let (x_table, y_table, z_table) = (tables[0], tables[1], tables[2]);
+            let (l0, l1) = (x_table.len(), y_table.len());
+            let (first, second) = scratch.split_at_mut(6 * l0);
+            // first[i0][(d1, d2)]: (0,0), (1,0), (2,0), (0,1), (1,1), (0,2).
+            for (t, x) in first.chunks_exact_mut(6).zip(x_table) {
+                t[0] = a[0] * x[0] + a[1] * x[1] + a[4] * x[2];
+                t[1] = a[2] * x[0] + a[5] * x[1];
+                t[2] = a[7] * x[0];
+                t[3] = a[3] * x[0] + a[6] * x[1];
+                t[4] = a[8] * x[0];
+                t[5] = a[9] * x[0];
+            }
+            // second[i1][i0][d2]
+            let second = &mut second[..3 * l0 * l1];
+            for (plane, y) in second.chunks_exact_mut(3 * l0).zip(y_table) {
+                for (s, t) in plane.chunks_exact_mut(3).zip(first.chunks_exact(6)) {
+                    s[0] = t[0] * y[0] + t[1] * y[1] + t[2] * y[2];
+                    s[1] = t[3] * y[0] + t[4] * y[1];
+                    s[2] = t[5] * y[0];
+                }
+            }
+            for (block, z) in out.chunks_exact_mut(l0 * l1).zip(z_table) {
+                for (o, s) in block.iter_mut().zip(second.chunks_exact(3)) {
+                    *o = s[0] * z[0] + s[1] * z[1] + s[2] * z[2];
+                }
             }
         }
     }
@@ -331,6 +374,91 @@ mod tests {
                     "D = {D}, p = {order}, {derivative:?}, node {node}: {r} against {s}"
                 );
             }
+        }
+    }
+
+    /// The mass block of the moments equals `sum_g rho_hat w_g phi_I phi_J` point by point.
+    #[test]
+    fn mass_block_equals_the_point_by_point_gauss_sums() {
+        for order in 1..=3 {
+            check_mass::<2>(order, [0, 3]);
+            check_mass::<3>(order, [2, 0, 4]);
+        }
+    }
+
+    fn check_mass<const D: usize>(order: usize, cell: [usize; D]) {
+        let grid = TensorGrid::<D>::new([1.0; D], [5; D]);
+        let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
+        let rule = GaussRule::new(order + 2).unwrap();
+        let (lo_ext, hi_ext) = (0.03, 0.9);
+        let mut axes: [AxisMoments; D] = std::array::from_fn(|_| AxisMoments::default());
+        for a in 0..D {
+            axes[a].update(&basis, a, &rule, lo_ext, hi_ext);
+        }
+        let lo: [f64; D] = std::array::from_fn(|a| grid.axes[a].cell_left(cell[a]).max(lo_ext));
+        let hi: [f64; D] =
+            std::array::from_fn(|a| (grid.axes[a].cell_left(cell[a]) + grid.axes[a].h).min(hi_ext));
+        let taylor = TaylorBox::new(lo, hi);
+        let mut density = [0.0; MAX_TERMS];
+        for (k, c) in density.iter_mut().enumerate() {
+            *c = 2.0 - 0.11 * k as f64;
+        }
+        let moments = CellMoments::new(&axes, cell).unwrap();
+        let n = moments.nodes();
+        let len = order + 1;
+        let mut scratch = vec![0.0; scratch_len(len * len)];
+        let mut block = vec![0.0; n * n];
+        moments.contract_mass(&density, &mut scratch, &mut block);
+        // Block entry of local nodes (row i, column j): pair_a = i_a len + j_a.
+        let digits = |mut k: usize| -> [usize; D] {
+            std::array::from_fn(|_| {
+                let d = k % len;
+                k /= len;
+                d
+            })
+        };
+        let mut slow = vec![0.0; n * n];
+        let mut shape = TensorShape::<D>::default();
+        let mapped: Vec<Vec<(f64, f64)>> = (0..D)
+            .map(|a| rule.mapped(lo[a], hi[a]).collect())
+            .collect();
+        let points = rule.len;
+        for g in 0..points.pow(D as u32) {
+            let mut rest = g;
+            let mut x = [0.0; D];
+            let mut w = 1.0;
+            for a in 0..D {
+                let (xa, wa) = mapped[a][rest % points];
+                rest /= points;
+                x[a] = xa;
+                w *= wa;
+            }
+            let t = taylor.terms(x);
+            let rho: f64 = (0..MAX_TERMS).map(|k| density[k] * t[k]).sum::<f64>() * w;
+            basis.eval_particle(cell, x, [0.0; D], &mut shape);
+            let mut phi = vec![0.0; n];
+            let mut k = 0;
+            shape.for_each_node(basis.strides(), |_, value, _| {
+                phi[k] = value;
+                k += 1;
+            });
+            for (i, &phi_i) in phi.iter().enumerate() {
+                for (j, &phi_j) in phi.iter().enumerate() {
+                    let (di, dj) = (digits(i), digits(j));
+                    let mut pair = 0;
+                    for a in (0..D).rev() {
+                        pair = pair * len * len + di[a] * len + dj[a];
+                    }
+                    slow[pair] += rho * phi_i * phi_j;
+                }
+            }
+        }
+        let scale = slow.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (k, (f, s)) in block.iter().zip(&slow).enumerate() {
+            assert!(
+                (f - s).abs() <= 1e-13 * scale,
+                "D = {D}, p = {order}, entry {k}: {f} against {s}"
+            );
         }
     }
 
