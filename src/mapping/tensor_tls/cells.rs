@@ -19,6 +19,21 @@ pub(super) fn dot<const D: usize>(a: &[f64; MAX_TERMS], t: &[f64; MAX_TERMS]) ->
     value
 }
 
+/// Term `k` of total degree 2 is `s_a^2 / 2 - 1/6` (not a product `s_a s_b` or of degree
+/// below 2).
+#[inline]
+pub(super) fn is_square_term<const D: usize>(k: usize) -> bool {
+    // After 1 and the D linear terms: (a, b) for a <= b, row by row.
+    let mut next = 1 + D;
+    for a in 0..D {
+        if k == next {
+            return true;
+        }
+        next += D - a;
+    }
+    false
+}
+
 /// `prod_a (hi_a - lo_a)`.
 #[inline]
 pub(super) fn box_volume<const D: usize>(lo: &[f64; D], hi: &[f64; D]) -> f64 {
@@ -51,6 +66,21 @@ pub(super) fn limit_density<const D: usize>(
     if a[0] <= 0.0 {
         return 0;
     }
+    // On the box |s_a| <= 1, |s_a s_b| <= 1 and |s_a^2 / 2 - 1/6| <= 1/3: if the fit's
+    // lower bound there clears the round-off of evaluating it, no Gauss point is negative
+    // (the same answer as the loop below, without it).
+    let mut spread = 0.0;
+    for k in 1..terms(D, 2) {
+        let largest = if is_square_term::<D>(k) {
+            1.0 / 3.0
+        } else {
+            1.0
+        };
+        spread += a[k].abs() * largest;
+    }
+    if a[0] - spread > 1e-12 * (a[0] + spread) {
+        return 0;
+    }
     let mut lowest = f64::INFINITY;
     rule.for_each(|x, _| {
         let value = dot::<D>(a, &taylor.terms(x));
@@ -69,8 +99,9 @@ pub(super) fn limit_density<const D: usize>(
 /// Add the shares of `q` of a particle at `x` with half-lengths `half` in the cell with
 /// axis indices `index` to `out[k]` (`k`: base-3 offset digits `o_a + 1`): along each axis
 /// the 1D rule (the domain `x_a +- min(l_a, h_a)` clipped to the grid, split in
-/// proportion to its overlap with the left neighbour, the cell and the right neighbour;
-/// the kept part is `q` minus the others, so the parts add up to `q`).
+/// proportion to its overlap with the left neighbour, the cell and the right neighbour:
+/// fractions `lambda_a = (left, 1 - left - right, right)`), and the part given to offset
+/// `o` is `q prod_a lambda_a(o_a)`, so the parts add up to `q` to round-off.
 pub(super) fn split_shares<const D: usize>(
     grid: &TensorGrid<D>,
     index: [usize; D],
@@ -80,19 +111,8 @@ pub(super) fn split_shares<const D: usize>(
     out: &mut [[f64; 4]],
 ) {
     let centre: usize = (0..D).map(|a| 3usize.pow(a as u32)).sum();
-    let inside = (0..D).all(|a| {
-        let left = grid.axes[a].cell_left(index[a]);
-        x[a] - half[a] >= left && x[a] + half[a] <= left + grid.axes[a].h
-    });
-    if inside {
-        // The domain lies in the cell: the whole of `q` stays there.
-        for c in 0..4 {
-            out[centre][c] += q[c];
-        }
-        return;
-    }
-    let mut parts = [[0.0; 4]; 27];
-    parts[centre] = q;
+    let mut fractions = [[0.0, 1.0, 0.0]; D];
+    let mut inside = true;
     for a in 0..D {
         let g = &grid.axes[a];
         let left = g.cell_left(index[a]);
@@ -100,34 +120,35 @@ pub(super) fn split_shares<const D: usize>(
         if x[a] - half[a] >= left && x[a] + half[a] <= right {
             continue;
         }
+        inside = false;
         let l = half[a].min(g.h);
         let (lo, hi) = (
             (x[a] - l).max(g.origin),
             (x[a] + l).min(g.origin + g.length),
         );
-        let step = 3usize.pow(a as u32);
-        let (over_left, over_right) = ((left - lo).max(0.0), (hi - right).max(0.0));
-        for k in 0..3usize.pow(D as u32) {
-            // Parts still centred along axis a (every part so far).
-            if (k / step) % 3 != 1 {
-                continue;
-            }
-            let part = parts[k];
-            let mut kept = part;
-            for c in 0..4 {
-                let per_length = part[c] / (hi - lo);
-                let to_left = over_left * per_length;
-                let to_right = over_right * per_length;
-                parts[k - step][c] = to_left;
-                parts[k + step][c] = to_right;
-                kept[c] = part[c] - to_left - to_right;
-            }
-            parts[k] = kept;
-        }
+        let per_length = 1.0 / (hi - lo);
+        let to_left = (left - lo).max(0.0) * per_length;
+        let to_right = (hi - right).max(0.0) * per_length;
+        fractions[a] = [to_left, 1.0 - to_left - to_right, to_right];
     }
-    for (o, p) in out.iter_mut().zip(&parts) {
+    if inside {
+        // The domain lies in the cell: the whole of `q` stays there.
         for c in 0..4 {
-            o[c] += p[c];
+            out[centre][c] += q[c];
+        }
+        return;
+    }
+    for (k, o) in out.iter_mut().enumerate().take(3usize.pow(D as u32)) {
+        let mut rest = k;
+        let mut weight = 1.0;
+        for a in 0..D {
+            weight *= fractions[a][rest % 3];
+            rest /= 3;
+        }
+        if weight != 0.0 {
+            for c in 0..4 {
+                o[c] += q[c] * weight;
+            }
         }
     }
 }

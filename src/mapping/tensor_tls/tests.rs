@@ -139,3 +139,49 @@ fn shares_add_up_to_the_particle_quantity() {
     let kept = out[13][0];
     assert!((kept - 0.6 * 0.6 * 0.7).abs() < 1e-12, "{kept}");
 }
+
+/// The square terms are the ones worth -1/6 at the box centre.
+#[test]
+fn square_terms_are_found() {
+    fn check<const D: usize>() {
+        let t = crate::numerics::taylor_nd::terms_of([0.0; D]);
+        for k in 1..crate::numerics::taylor_nd::terms(D, 2) {
+            assert_eq!(
+                cells::is_square_term::<D>(k),
+                t[k] == -1.0 / 6.0,
+                "D = {D}, k = {k}"
+            );
+        }
+    }
+    check::<1>();
+    check::<2>();
+    check::<3>();
+}
+
+proptest! {
+    /// The limiter leaves a density fit alone only if it is non-negative at every Gauss
+    /// point, and otherwise makes it so (2D, coefficients near the bound of its shortcut).
+    #[test]
+    fn limited_densities_are_non_negative_at_the_gauss_points(
+        mean in 0.1f64..2.0,
+        others in proptest::collection::vec(-1.0f64..1.0, 5),
+        scale in 0.0f64..1.5,
+    ) {
+        let taylor = TaylorBox::new([0.0, 1.0], [0.5, 1.2]);
+        let rule = BoxRule::new(&GaussRule::new(4).unwrap(), [0.0, 1.0], [0.5, 1.2]);
+        let mut a = [0.0; MAX_TERMS];
+        a[0] = mean;
+        let norm: f64 = others.iter().map(|c| c.abs()).sum();
+        for (k, c) in others.iter().enumerate() {
+            a[1 + k] = c * scale * mean / norm.max(1e-12);
+        }
+        let before = a;
+        let limited = cells::limit_density(&taylor, &rule, &mut a);
+        let mut lowest = f64::INFINITY;
+        rule.for_each(|x, _| lowest = lowest.min(dot::<2>(&a, &taylor.terms(x))));
+        prop_assert!(lowest >= -1e-14 * mean, "lowest {lowest}");
+        if limited == 0 {
+            prop_assert_eq!(a, before);
+        }
+    }
+}
