@@ -62,7 +62,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                         let n = cell_moments.nodes();
                         let values = &mut node_values[..n];
                         for a in 0..D {
-                            cell_moments.contract(&fits[a], None, &mut scratch, &mut integral);
+                            cell_moments.contract::<N>(&fits[a], None, &mut scratch, &mut integral);
                             for (v, &r) in values.iter_mut().zip(&integral) {
                                 v[a] = r;
                             }
@@ -136,13 +136,23 @@ impl<const D: usize> TensorTlsMapping<D> {
                     if let Some(cell_moments) = CellMoments::new(moments, cell_axes(grid, cell)) {
                         let n = cell_moments.nodes();
                         let values = &mut node_values[..n];
-                        cell_moments.contract(&density[cell], None, &mut scratch, &mut integral);
+                        cell_moments.contract::<N>(
+                            &density[cell],
+                            None,
+                            &mut scratch,
+                            &mut integral,
+                        );
                         for (v, &r) in values.iter_mut().zip(&integral) {
                             *v = [r, 0.0, 0.0, 0.0];
                         }
                         if with_body {
                             for a in 0..D {
-                                cell_moments.contract(&body[a], None, &mut scratch, &mut integral);
+                                cell_moments.contract::<N>(
+                                    &body[a],
+                                    None,
+                                    &mut scratch,
+                                    &mut integral,
+                                );
                                 for (v, &r) in values.iter_mut().zip(&integral) {
                                     v[1 + a] = r;
                                 }
@@ -151,12 +161,17 @@ impl<const D: usize> TensorTlsMapping<D> {
                         // sigma_(ac) enters f_a with d/dx_c and, off the diagonal, f_c
                         // with d/dx_a.
                         for (fit, &(a, c)) in fits.iter().zip(components) {
-                            cell_moments.contract(fit, Some(c), &mut scratch, &mut integral);
+                            cell_moments.contract::<N>(fit, Some(c), &mut scratch, &mut integral);
                             for (v, &r) in values.iter_mut().zip(&integral) {
                                 v[1 + a] -= r;
                             }
                             if a != c {
-                                cell_moments.contract(fit, Some(a), &mut scratch, &mut integral);
+                                cell_moments.contract::<N>(
+                                    fit,
+                                    Some(a),
+                                    &mut scratch,
+                                    &mut integral,
+                                );
                                 for (v, &r) in values.iter_mut().zip(&integral) {
                                     v[1 + c] -= r;
                                 }

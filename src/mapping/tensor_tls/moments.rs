@@ -172,8 +172,10 @@ impl<'a, const D: usize> CellMoments<'a, D> {
     /// `derivative`, for the nodes `n` of the cell in lexicographic order (x fastest);
     /// `out` holds at least [`Self::nodes`] values, `scratch` at least
     /// [`scratch_len`]`(max_a len_a)`.
+    /// `N` > 0: every axis has `N` functions (the fixed support of the basis), and the
+    /// contraction runs with fixed loop lengths.
     #[inline]
-    pub(super) fn contract(
+    pub(super) fn contract<const N: usize>(
         &self,
         a: &[f64; MAX_TERMS],
         derivative: Option<usize>,
@@ -187,7 +189,11 @@ impl<'a, const D: usize> CellMoments<'a, D> {
                 self.phi[axis]
             }
         });
-        contract_tables(a, tables, scratch, out);
+        if N > 0 && D == 2 && self.len[0] == N && self.len[1] == N {
+            contract_fixed_2d::<N>(a, tables[0], tables[1], out);
+        } else {
+            contract_tables(a, tables, scratch, out);
+        }
     }
 
     /// `out = M_cell`, `M_(IJ) = int_box (sum_k a_k t_k) phi_I phi_J` laid out
@@ -289,6 +295,32 @@ fn contract_tables<const D: usize>(
     }
 }
 
+/// [`contract_tables`] in 2D with `L` functions per axis: fixed loop lengths, the partial
+/// sums in registers.
+#[inline(always)]
+fn contract_fixed_2d<const L: usize>(
+    a: &[f64; MAX_TERMS],
+    x_table: &[[f64; FACTORS]],
+    y_table: &[[f64; FACTORS]],
+    out: &mut [f64],
+) {
+    let x_table = &x_table[..L];
+    let y_table = &y_table[..L];
+    let partial: [[f64; 3]; L] = std::array::from_fn(|i| {
+        let x = x_table[i];
+        [
+            a[0] * x[0] + a[1] * x[1] + a[3] * x[2],
+            a[2] * x[0] + a[4] * x[1],
+            a[5] * x[0],
+        ]
+    });
+    for (row, y) in out[..L * L].chunks_exact_mut(L).zip(y_table) {
+        for (o, t) in row.iter_mut().zip(&partial) {
+            *o = t[0] * y[0] + t[1] * y[1] + t[2] * y[2];
+        }
+    }
+}
+
 /// Scratch length [`CellMoments::contract`] needs for `len` functions per axis.
 pub(super) fn scratch_len(len: usize) -> usize {
     6 * len * (1 + len)
@@ -337,7 +369,17 @@ mod tests {
         let mut derivatives = vec![None];
         derivatives.extend((0..D).map(Some));
         for derivative in derivatives {
-            moments.contract(&coefficients, derivative, &mut scratch, &mut out);
+            moments.contract::<0>(&coefficients, derivative, &mut scratch, &mut out);
+            if D == 2 {
+                // The fixed-size kernel gives the same sums.
+                let mut fixed = vec![0.0; out.len()];
+                match order {
+                    1 => moments.contract::<2>(&coefficients, derivative, &mut scratch, &mut fixed),
+                    2 => moments.contract::<3>(&coefficients, derivative, &mut scratch, &mut fixed),
+                    _ => moments.contract::<4>(&coefficients, derivative, &mut scratch, &mut fixed),
+                }
+                assert_eq!(fixed, out);
+            }
             let mut fast = std::collections::BTreeMap::new();
             moments.for_each_node(&strides, |k, node| {
                 fast.insert(node, out[k]);
