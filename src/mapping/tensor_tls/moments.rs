@@ -332,6 +332,57 @@ mod tests {
     use crate::grid::{BSplineBasis, LinearBasis, TensorGrid, TensorShape};
     use crate::numerics::taylor_nd::TaylorBox;
 
+    /// A 5^D grid of B-splines of `order` with the material extent [0.03, 0.9] on every
+    /// axis (cell 0 is clipped on the left), its axis moments and the box of `cell`.
+    struct Fixture<const D: usize> {
+        basis: TensorBasis<D, BSplineBasis>,
+        rule: GaussRule,
+        axes: [AxisMoments; D],
+        lo: [f64; D],
+        hi: [f64; D],
+    }
+
+    impl<const D: usize> Fixture<D> {
+        fn new(order: usize, cell: [usize; D]) -> Self {
+            let grid = TensorGrid::<D>::new([1.0; D], [5; D]);
+            let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
+            let rule = GaussRule::new(order + 2).unwrap();
+            let (lo_ext, hi_ext) = (0.03, 0.9);
+            let mut axes: [AxisMoments; D] = std::array::from_fn(|_| AxisMoments::default());
+            for a in 0..D {
+                axes[a].update(&basis, a, &rule, lo_ext, hi_ext);
+            }
+            let left = |a: usize| grid.axes[a].cell_left(cell[a]);
+            Self {
+                lo: std::array::from_fn(|a| left(a).max(lo_ext)),
+                hi: std::array::from_fn(|a| (left(a) + grid.axes[a].h).min(hi_ext)),
+                basis,
+                rule,
+                axes,
+            }
+        }
+
+        /// `visit(x_g, w_g)` over the tensor Gauss rule of the box.
+        fn for_each_point(&self, mut visit: impl FnMut([f64; D], f64)) {
+            let mapped: Vec<Vec<(f64, f64)>> = (0..D)
+                .map(|a| self.rule.mapped(self.lo[a], self.hi[a]).collect())
+                .collect();
+            let n = self.rule.len;
+            for g in 0..n.pow(D as u32) {
+                let mut rest = g;
+                let mut x = [0.0; D];
+                let mut w = 1.0;
+                for a in 0..D {
+                    let (xa, wa) = mapped[a][rest % n];
+                    rest /= n;
+                    x[a] = xa;
+                    w *= wa;
+                }
+                visit(x, w);
+            }
+        }
+    }
+
     /// The contraction of the moments equals the point-by-point Gauss sums of the fitted
     /// polynomial against the basis (values and every derivative axis), in 1D, 2D and 3D,
     /// with a box clipped in a boundary cell.
@@ -345,24 +396,14 @@ mod tests {
     }
 
     fn check<const D: usize>(order: usize, cell: [usize; D]) {
-        let grid = TensorGrid::<D>::new([1.0; D], [5; D]);
-        let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
-        let rule = GaussRule::new(order + 2).unwrap();
-        // Material extent [0.03, 0.9] on every axis: cell 0 is clipped on the left.
-        let (lo_ext, hi_ext) = (0.03, 0.9);
-        let mut axes: [AxisMoments; D] = std::array::from_fn(|_| AxisMoments::default());
-        for a in 0..D {
-            axes[a].update(&basis, a, &rule, lo_ext, hi_ext);
-        }
-        let lo: [f64; D] = std::array::from_fn(|a| grid.axes[a].cell_left(cell[a]).max(lo_ext));
-        let hi: [f64; D] =
-            std::array::from_fn(|a| (grid.axes[a].cell_left(cell[a]) + grid.axes[a].h).min(hi_ext));
-        let taylor = TaylorBox::new(lo, hi);
+        let fixture = Fixture::<D>::new(order, cell);
+        let (basis, axes) = (&fixture.basis, &fixture.axes);
+        let taylor = TaylorBox::new(fixture.lo, fixture.hi);
         let mut coefficients = [0.0; MAX_TERMS];
         for (k, c) in coefficients.iter_mut().enumerate() {
             *c = 1.0 + 0.37 * k as f64 - 0.05 * (k * k) as f64;
         }
-        let moments = CellMoments::new(&axes, cell).unwrap();
+        let moments = CellMoments::new(axes, cell).unwrap();
         let strides = *basis.strides();
         let mut scratch = vec![0.0; scratch_len(order + 1)];
         let mut out = vec![0.0; moments.nodes()];
@@ -387,27 +428,14 @@ mod tests {
             // Point by point over the tensor rule.
             let mut slow = std::collections::BTreeMap::<usize, f64>::new();
             let mut shape = TensorShape::<D>::default();
-            let mapped: Vec<Vec<(f64, f64)>> = (0..D)
-                .map(|a| rule.mapped(lo[a], hi[a]).collect())
-                .collect();
-            let n = rule.len;
-            for g in 0..n.pow(D as u32) {
-                let mut rest = g;
-                let mut x = [0.0; D];
-                let mut w = 1.0;
-                for a in 0..D {
-                    let (xa, wa) = mapped[a][rest % n];
-                    rest /= n;
-                    x[a] = xa;
-                    w *= wa;
-                }
+            fixture.for_each_point(|x, w| {
                 let t = taylor.terms(x);
                 let value: f64 = (0..MAX_TERMS).map(|k| coefficients[k] * t[k]).sum::<f64>() * w;
                 basis.eval_particle(cell, x, [0.0; D], &mut shape);
                 shape.for_each_node(&strides, |node, phi, grad| {
                     *slow.entry(node).or_default() += value * derivative.map_or(phi, |a| grad[a]);
                 });
-            }
+            });
             assert_eq!(fast.len(), (order + 1).pow(D as u32));
             for (node, r) in &fast {
                 let s = slow[node];
@@ -429,23 +457,14 @@ mod tests {
     }
 
     fn check_mass<const D: usize>(order: usize, cell: [usize; D]) {
-        let grid = TensorGrid::<D>::new([1.0; D], [5; D]);
-        let basis = TensorBasis::new(grid, |g| BSplineBasis::new(g, order).unwrap());
-        let rule = GaussRule::new(order + 2).unwrap();
-        let (lo_ext, hi_ext) = (0.03, 0.9);
-        let mut axes: [AxisMoments; D] = std::array::from_fn(|_| AxisMoments::default());
-        for a in 0..D {
-            axes[a].update(&basis, a, &rule, lo_ext, hi_ext);
-        }
-        let lo: [f64; D] = std::array::from_fn(|a| grid.axes[a].cell_left(cell[a]).max(lo_ext));
-        let hi: [f64; D] =
-            std::array::from_fn(|a| (grid.axes[a].cell_left(cell[a]) + grid.axes[a].h).min(hi_ext));
-        let taylor = TaylorBox::new(lo, hi);
+        let fixture = Fixture::<D>::new(order, cell);
+        let (basis, axes) = (&fixture.basis, &fixture.axes);
+        let taylor = TaylorBox::new(fixture.lo, fixture.hi);
         let mut density = [0.0; MAX_TERMS];
         for (k, c) in density.iter_mut().enumerate() {
             *c = 2.0 - 0.11 * k as f64;
         }
-        let moments = CellMoments::new(&axes, cell).unwrap();
+        let moments = CellMoments::new(axes, cell).unwrap();
         let n = moments.nodes();
         let len = order + 1;
         let mut scratch = vec![0.0; scratch_len(len * len)];
@@ -461,20 +480,7 @@ mod tests {
         };
         let mut slow = vec![0.0; n * n];
         let mut shape = TensorShape::<D>::default();
-        let mapped: Vec<Vec<(f64, f64)>> = (0..D)
-            .map(|a| rule.mapped(lo[a], hi[a]).collect())
-            .collect();
-        let points = rule.len;
-        for g in 0..points.pow(D as u32) {
-            let mut rest = g;
-            let mut x = [0.0; D];
-            let mut w = 1.0;
-            for a in 0..D {
-                let (xa, wa) = mapped[a][rest % points];
-                rest /= points;
-                x[a] = xa;
-                w *= wa;
-            }
+        fixture.for_each_point(|x, w| {
             let t = taylor.terms(x);
             let rho: f64 = (0..MAX_TERMS).map(|k| density[k] * t[k]).sum::<f64>() * w;
             basis.eval_particle(cell, x, [0.0; D], &mut shape);
@@ -494,7 +500,7 @@ mod tests {
                     slow[pair] += rho * phi_i * phi_j;
                 }
             }
-        }
+        });
         let scale = slow.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (k, (f, s)) in block.iter().zip(&slow).enumerate() {
             assert!(
