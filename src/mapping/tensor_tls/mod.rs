@@ -39,8 +39,9 @@
 //! which keeps the cell mass and makes the lumped masses non-negative and `M^C` positive
 //! semi-definite.
 //!
-//! The fits are in `fits.rs`, their Gauss integration against the basis in
-//! `integrate.rs`, the box, share and limiter helpers in `cells.rs`.
+//! The fits are in `fits.rs`, their integration against the basis in `integrate.rs` (from
+//! the per-axis 1D moments of the Taylor factors, `moments.rs`: the Gauss sums above,
+//! rearranged), the box, share and limiter helpers in `cells.rs`.
 
 // Index loops: the indices enter the formulas (terms, axes, LDL^T rows).
 #![allow(clippy::needless_range_loop)]
