@@ -7,6 +7,8 @@
 
 use super::BoxRule;
 use crate::grid::TensorGrid;
+use crate::grid::{Basis, TensorBasis};
+use crate::numerics::gauss::GaussRule;
 use crate::numerics::taylor_nd::{terms, TaylorBox, MAX_TERMS};
 
 /// `sum_k a_k t_k` over the terms of total degree 2.
@@ -34,6 +36,15 @@ pub(super) fn is_square_term<const D: usize>(k: usize) -> bool {
     false
 }
 
+/// The largest number of functions per axis of any cell of `basis`.
+#[inline]
+pub(super) fn max_len<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> usize {
+    (0..D)
+        .map(|a| basis.axis(a).max_window())
+        .max()
+        .unwrap_or(1)
+}
+
 /// `prod_a (hi_a - lo_a)`.
 #[inline]
 pub(super) fn box_volume<const D: usize>(lo: &[f64; D], hi: &[f64; D]) -> f64 {
@@ -57,10 +68,11 @@ pub(super) fn cell_axes<const D: usize>(grid: &TensorGrid<D>, cell: usize) -> [u
 }
 
 /// Scale the non-constant coefficients of a density fit towards its mean where it is
-/// negative at a Gauss point of the box; 1 if it did.
+/// negative at a point of `rule` mapped onto the box `[lo, hi]`; 1 if it did.
 pub(super) fn limit_density<const D: usize>(
     taylor: &TaylorBox<D>,
-    rule: &BoxRule<D>,
+    rule: &GaussRule,
+    (lo, hi): ([f64; D], [f64; D]),
     a: &mut [f64; MAX_TERMS],
 ) -> u64 {
     if a[0] <= 0.0 {
@@ -82,7 +94,7 @@ pub(super) fn limit_density<const D: usize>(
         return 0;
     }
     let mut lowest = f64::INFINITY;
-    rule.for_each(|x, _| {
+    BoxRule::new(rule, lo, hi).for_each(|x, _| {
         let value = dot::<D>(a, &taylor.terms(x));
         lowest = if value < lowest { value } else { lowest };
     });

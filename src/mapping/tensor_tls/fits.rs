@@ -8,7 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::cells::{box_volume, limit_density};
-use super::{stress_components, BoxRule, TensorTlsMapping, CELLS_PER_TASK, MAX_DEGREE};
+use super::{stress_components, TensorTlsMapping, CELLS_PER_TASK, MAX_DEGREE};
 use crate::error::Result;
 use crate::mapping::RemedyCounts;
 use crate::numerics::taylor_nd::{add_rhs, fit_degree, Factor, NormalMatrix, TaylorBox, MAX_TERMS};
@@ -75,7 +75,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                     let a1 = totals[cell][0] / volume;
                     *density = conservative.solve(&normal, &density_rhs, a1);
                     let density_limited_fits =
-                        limit_density(&taylor, &BoxRule::new(rule, lo[cell], hi[cell]), density);
+                        limit_density(&taylor, rule, (lo[cell], hi[cell]), density);
                     if body.is_some() {
                         for a in 0..D {
                             body_fits[a] = conservative.solve(

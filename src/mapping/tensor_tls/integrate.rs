@@ -14,19 +14,11 @@
 // Index loops: the indices enter the formulas (axes).
 #![allow(clippy::needless_range_loop)]
 
-use super::cells::{cell_axes, dot};
+use super::cells::{cell_axes, dot, max_len};
 use super::moments::{scratch_len, CellMoments};
 use super::{stress_components, GaussCell, TensorTlsMapping};
 use crate::grid::{Basis, TensorBasis, TensorShape};
 use std::ops::Range;
-
-/// The largest number of functions per axis of any cell.
-fn max_len<const D: usize, B: Basis>(basis: &TensorBasis<D, B>) -> usize {
-    (0..D)
-        .map(|a| basis.axis(a).max_window())
-        .max()
-        .unwrap_or(1)
-}
 
 impl<const D: usize> TensorTlsMapping<D> {
     /// `out_I = int_box v_hat phi_I` of the fitted vector density.

@@ -248,7 +248,7 @@ impl<const D: usize> TensorTlsMapping<D> {
     /// [`TensorMapping::map_mass_and_force`]; `None` if the basis' support is too large
     /// for the stencil assembly.
     pub fn with_consistent_mass<B: Basis>(mut self, basis: &TensorBasis<D, B>) -> Option<Self> {
-        let reach = (0..D).map(|a| basis.axis(a).max_window()).max()? - 1;
+        let reach = max_len(basis) - 1;
         if (reach + 1).pow(D as u32) > MAX_SUPPORT_NODES {
             return None;
         }
@@ -266,10 +266,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         let (lo, hi, active, density, rule) =
             (&self.lo, &self.hi, &self.active, &self.density, &self.rule);
         let (moments, grid) = (&self.moments, &basis.grid);
-        let len = (0..D)
-            .map(|a| basis.axis(a).max_window())
-            .max()
-            .unwrap_or(1);
+        let len = max_len(basis);
         assembly.assemble(|cells, rows| {
             let mut shape = TensorShape::<D>::default();
             // Per task: the scratch of the contractions and the cell block.
@@ -666,7 +663,7 @@ mod cells;
 mod fits;
 mod integrate;
 mod moments;
-use cells::{cell_axes, dot, split_shares};
+use cells::{cell_axes, dot, max_len, split_shares};
 use moments::{AxisMoments, CellMoments};
 
 #[cfg(test)]

@@ -168,7 +168,8 @@ proptest! {
         scale in 0.0f64..1.5,
     ) {
         let taylor = TaylorBox::new([0.0, 1.0], [0.5, 1.2]);
-        let rule = BoxRule::new(&GaussRule::new(4).unwrap(), [0.0, 1.0], [0.5, 1.2]);
+        let gauss = GaussRule::new(4).unwrap();
+        let rule = BoxRule::new(&gauss, [0.0, 1.0], [0.5, 1.2]);
         let mut a = [0.0; MAX_TERMS];
         a[0] = mean;
         let norm: f64 = others.iter().map(|c| c.abs()).sum();
@@ -176,7 +177,7 @@ proptest! {
             a[1 + k] = c * scale * mean / norm.max(1e-12);
         }
         let before = a;
-        let limited = cells::limit_density(&taylor, &rule, &mut a);
+        let limited = cells::limit_density(&taylor, &gauss, ([0.0, 1.0], [0.5, 1.2]), &mut a);
         let mut lowest = f64::INFINITY;
         rule.for_each(|x, _| lowest = lowest.min(dot::<2>(&a, &taylor.terms(x))));
         prop_assert!(lowest >= -1e-14 * mean, "lowest {lowest}");
