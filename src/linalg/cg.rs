@@ -15,7 +15,9 @@
 //! Kronecker inverse. Products with `A` run over the rayon pool in fixed row blocks and
 //! the dot products are serial, so the iterates are bitwise the same for any thread count.
 
-use super::{CsrMatrix, LinearSolver, SolveStats};
+mod iteration;
+
+use super::{CsrMatrix, LinearSolver, RestrictedSystem, SolveStats};
 use crate::error::{Error, Result};
 
 /// `z = P^{-1} r` for a symmetric positive definite `P` approximating `A`.
@@ -23,8 +25,10 @@ pub trait Preconditioner: Send {
     /// The scenario name (`solver.kind`) of CG with this preconditioner.
     fn solver_name(&self) -> &'static str;
 
-    /// Prepare for the matrix `a` (called at the start of every solve).
-    fn setup(&mut self, a: &CsrMatrix) -> Result<()>;
+    /// Prepare for the matrix `a` (called at the start of every solve), or, with
+    /// `active`, for `(P A P + I - P)`, `P = diag(active)`: the matrix
+    /// [`CsrMatrix::constrain`] would build, without the copy.
+    fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()>;
 
     /// `z = P^{-1} r`.
     fn apply(&mut self, a: &CsrMatrix, r: &[f64], z: &mut [f64]);
@@ -38,7 +42,7 @@ impl Preconditioner for Identity {
     fn solver_name(&self) -> &'static str {
         "cg"
     }
-    fn setup(&mut self, _a: &CsrMatrix) -> Result<()> {
+    fn setup(&mut self, _a: &CsrMatrix, _active: Option<&[bool]>) -> Result<()> {
         Ok(())
     }
     fn apply(&mut self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
@@ -56,9 +60,14 @@ impl Preconditioner for Jacobi {
     fn solver_name(&self) -> &'static str {
         "pcg"
     }
-    fn setup(&mut self, a: &CsrMatrix) -> Result<()> {
+    fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
         a.diagonal_into(&mut self.inverse_diagonal);
         for (i, d) in self.inverse_diagonal.iter_mut().enumerate() {
+            if active.is_some_and(|active| !active[i]) {
+                // An identity row of the constrained matrix.
+                *d = 1.0;
+                continue;
+            }
             if d.is_nan() || *d <= 0.0 {
                 return Err(Error::Solver {
                     solver: "pcg".into(),
@@ -82,10 +91,10 @@ pub struct Pcg<P> {
     pub tolerance: f64,
     pub max_iterations: usize,
     pub preconditioner: P,
-    residual: Vec<f64>,
-    preconditioned: Vec<f64>,
-    direction: Vec<f64>,
-    product: Vec<f64>,
+    /// The vectors of each system of a solve (one, or several in lockstep).
+    systems: Vec<iteration::CgVectors>,
+    /// Scratch for the products `A d` of several systems, interleaved by row.
+    interleaved: Vec<f64>,
     /// Whether the preconditioner is set up for the matrix of the last solve.
     prepared: bool,
 }
@@ -109,10 +118,8 @@ impl<P: Preconditioner> Pcg<P> {
             tolerance,
             max_iterations,
             preconditioner,
-            residual: Vec::new(),
-            preconditioned: Vec::new(),
-            direction: Vec::new(),
-            product: Vec::new(),
+            systems: Vec::new(),
+            interleaved: Vec::new(),
             prepared: false,
         }
     }
@@ -136,11 +143,11 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
 
     fn solve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
         self.prepared = false;
-        self.run(a, None, b, x)
+        self.run_one(a, None, b, x)
     }
 
     fn resolve(&mut self, a: &CsrMatrix, b: &[f64], x: &mut [f64]) -> Result<SolveStats> {
-        self.run(a, None, b, x)
+        self.run_one(a, None, b, x)
     }
 
     /// CG on the kept DOFs: the residual, the preconditioned residual and every product
@@ -153,138 +160,39 @@ impl<P: Preconditioner> LinearSolver for Pcg<P> {
     fn solve_restricted(
         &mut self,
         a: &CsrMatrix,
+        active: &[bool],
         keep: &[bool],
         b: &[f64],
         x: &mut [f64],
     ) -> Result<SolveStats> {
         self.prepared = false;
-        self.run(a, Some(keep), b, x)
+        self.run_one(a, Some((active, keep)), b, x)
     }
 
     fn resolve_restricted(
         &mut self,
         a: &CsrMatrix,
+        active: &[bool],
         keep: &[bool],
         b: &[f64],
         x: &mut [f64],
     ) -> Result<SolveStats> {
-        self.run(a, Some(keep), b, x)
+        self.run_one(a, Some((active, keep)), b, x)
     }
-}
 
-/// `v_i = 0` where `keep[i]` is false (no-op without a restriction).
-fn project(v: &mut [f64], keep: Option<&[bool]>) {
-    if let Some(keep) = keep {
-        for (vi, &k) in v.iter_mut().zip(keep) {
-            if !k {
-                *vi = 0.0;
-            }
-        }
-    }
-}
-
-impl<P: Preconditioner> Pcg<P> {
-    /// CG from `x`, restricted to the DOFs with `keep[i]` when `keep` is given (the others
-    /// are set to 0 and stay there); the preconditioner is set up for `a` unless `prepared`
-    /// says it already is.
-    fn run(
+    /// The systems in lockstep: one pass over `a` per iteration computes `A d` for every
+    /// system not yet converged; each system's iterates are bitwise those of its own solve.
+    fn solve_restricted_many(
         &mut self,
         a: &CsrMatrix,
-        keep: Option<&[bool]>,
-        b: &[f64],
-        x: &mut [f64],
-    ) -> Result<SolveStats> {
-        let n = b.len();
-        super::check_dimensions(self.preconditioner.solver_name(), a, b, x)?;
-        if keep.is_some_and(|k| k.len() != n) {
-            return Err(self.failure(format!(
-                "restriction of length {} for a system of {n} DOFs",
-                keep.map_or(0, <[bool]>::len)
-            )));
+        active: &[bool],
+        systems: &mut [RestrictedSystem<'_>],
+        resolve: bool,
+    ) -> Result<Vec<SolveStats>> {
+        if !resolve {
+            self.prepared = false;
         }
-        project(x, keep);
-        let b_norm = match keep {
-            None => dot(b, b).sqrt(),
-            Some(keep) => b
-                .iter()
-                .zip(keep)
-                .map(|(bi, &k)| if k { bi * bi } else { 0.0 })
-                .sum::<f64>()
-                .sqrt(),
-        };
-        if b_norm == 0.0 {
-            x.fill(0.0);
-            return Ok(SolveStats::default());
-        }
-        self.residual.resize(n, 0.0);
-        self.preconditioned.resize(n, 0.0);
-        self.direction.resize(n, 0.0);
-        self.product.resize(n, 0.0);
-        a.par_mul_vec(x, &mut self.product);
-        for ((r, bi), q) in self.residual.iter_mut().zip(b).zip(&self.product) {
-            *r = bi - q;
-        }
-        project(&mut self.residual, keep);
-        let mut relative = dot(&self.residual, &self.residual).sqrt() / b_norm;
-        if relative < self.tolerance {
-            return Ok(SolveStats {
-                iterations: 0,
-                relative_residual: relative,
-            });
-        }
-        if !self.prepared {
-            self.preconditioner.setup(a)?;
-            self.prepared = true;
-        }
-        let (r, z, d, q) = (
-            &mut self.residual,
-            &mut self.preconditioned,
-            &mut self.direction,
-            &mut self.product,
-        );
-        self.preconditioner.apply(a, r, z);
-        project(z, keep);
-        d.copy_from_slice(z);
-        let mut rz = dot(r, z);
-        for k in 1..=self.max_iterations {
-            a.par_mul_vec(d, q);
-            project(q, keep);
-            let dq = dot(d, q);
-            if dq.is_nan() || dq <= 0.0 || rz.is_nan() || rz <= 0.0 {
-                let name = self.preconditioner.solver_name();
-                return Err(Error::Solver {
-                    solver: name.into(),
-                    reason: format!(
-                        "non-positive curvature d^T A d = {dq:e} or r^T P^-1 r = {rz:e} at \
-                         iteration {k} (matrix or preconditioner not positive definite)"
-                    ),
-                });
-            }
-            let alpha = rz / dq;
-            for i in 0..n {
-                x[i] += alpha * d[i];
-                r[i] -= alpha * q[i];
-            }
-            relative = dot(r, r).sqrt() / b_norm;
-            if relative < self.tolerance {
-                return Ok(SolveStats {
-                    iterations: k,
-                    relative_residual: relative,
-                });
-            }
-            self.preconditioner.apply(a, r, z);
-            project(z, keep);
-            let rz_new = dot(r, z);
-            let beta = rz_new / rz;
-            rz = rz_new;
-            for i in 0..n {
-                d[i] = z[i] + beta * d[i];
-            }
-        }
-        Err(self.failure(format!(
-            "no convergence to {:e} in {} iterations (relative residual {relative:e})",
-            self.tolerance, self.max_iterations
-        )))
+        self.run_restricted(a, active, systems)
     }
 }
 
@@ -425,17 +333,102 @@ mod tests {
         let mut shared = JacobiCg::with_preconditioner(Jacobi::default(), 1e-12, 1000);
         assert!(shared.restricts());
         let want = separate.solve(&constrained, &b, &mut expected).unwrap();
-        // The shared solver is set up for the unconstrained matrix first.
-        shared.solve(&a, &b, &mut vec![0.0; n * n]).unwrap();
+        // The shared solver is set up for the unconstrained matrix first (every DOF active).
+        let all = vec![true; n * n];
+        shared
+            .solve_restricted(&a, &all, &all, &b, &mut vec![0.0; n * n])
+            .unwrap();
         let got = shared
-            .resolve_restricted(&a, &keep, &b, &mut restricted)
+            .resolve_restricted(&a, &all, &keep, &b, &mut restricted)
             .unwrap();
         assert_eq!(got, want);
         assert_eq!(restricted, expected);
         assert!(restricted.iter().zip(&keep).all(|(&x, &k)| k || x == 0.0));
         // A restriction of the wrong length is an error, not a panic.
-        let err = shared.solve_restricted(&a, &keep[1..], &b, &mut restricted);
+        let err = shared.solve_restricted(&a, &all, &keep[1..], &b, &mut restricted);
         assert!(matches!(err, Err(Error::Solver { .. })));
+        let err = shared.solve_restricted(&a, &all[1..], &keep, &b, &mut restricted);
+        assert!(matches!(err, Err(Error::Solver { .. })));
+    }
+
+    #[test]
+    fn systems_in_lockstep_are_their_own_solves_bit_for_bit() {
+        let n = 10;
+        let a = mass_like(n);
+        let active: Vec<bool> = (0..n * n).map(|i| i % 17 != 3).collect();
+        // Different kept sets (rollers), a zero right-hand side, and a guess that already
+        // solves its system, so the systems converge after different iteration counts.
+        let keeps: Vec<Vec<bool>> = (0..4)
+            .map(|s| (0..n * n).map(|i| active[i] && i % n != s).collect())
+            .collect();
+        let rhs: Vec<Vec<f64>> = (0..4)
+            .map(|s| {
+                (0..n * n)
+                    .map(|i| match s {
+                        2 => 0.0,
+                        _ if keeps[s][i] => (i as f64 * (0.3 + 0.2 * s as f64)).cos(),
+                        _ => 0.0,
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut converged = vec![0.0; n * n];
+        JacobiCg::with_preconditioner(Jacobi::default(), 1e-14, 1000)
+            .solve_restricted(&a, &active, &keeps[3], &rhs[3], &mut converged)
+            .unwrap();
+        let guesses: Vec<Vec<f64>> = (0..4)
+            .map(|s| match s {
+                3 => converged.clone(),
+                _ => (0..n * n)
+                    .map(|i| 0.01 * (i as f64 + s as f64).sin())
+                    .collect(),
+            })
+            .collect();
+        for resolve in [false, true] {
+            let make = || JacobiCg::with_preconditioner(Jacobi::default(), 1e-10, 1000);
+            let (mut one_by_one, mut lockstep) = (make(), make());
+            if resolve {
+                // Set up beforehand, as by an earlier solve of the step.
+                let mut scratch = guesses[0].clone();
+                one_by_one
+                    .solve_restricted(&a, &active, &keeps[0], &rhs[0], &mut scratch)
+                    .unwrap();
+                let mut scratch = guesses[0].clone();
+                lockstep
+                    .solve_restricted(&a, &active, &keeps[0], &rhs[0], &mut scratch)
+                    .unwrap();
+            }
+            let mut expected = guesses.clone();
+            let mut want = Vec::new();
+            for (s, x) in expected.iter_mut().enumerate() {
+                want.push(
+                    if s == 0 && !resolve {
+                        one_by_one.solve_restricted(&a, &active, &keeps[s], &rhs[s], x)
+                    } else {
+                        one_by_one.resolve_restricted(&a, &active, &keeps[s], &rhs[s], x)
+                    }
+                    .unwrap(),
+                );
+            }
+            let mut got_x = guesses.clone();
+            let mut systems: Vec<RestrictedSystem<'_>> = got_x
+                .iter_mut()
+                .enumerate()
+                .map(|(s, x)| RestrictedSystem {
+                    keep: &keeps[s],
+                    b: &rhs[s],
+                    x,
+                })
+                .collect();
+            let got = lockstep
+                .solve_restricted_many(&a, &active, &mut systems, resolve)
+                .unwrap();
+            assert_eq!(got, want);
+            assert_eq!(got_x, expected);
+            let iterations: Vec<usize> = got.iter().map(|s| s.iterations).collect();
+            assert_eq!(iterations[2..], [0, 0]);
+            assert!(iterations[0] > 3 && iterations[1] > 3, "{iterations:?}");
+        }
     }
 
     #[test]

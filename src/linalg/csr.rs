@@ -129,6 +129,31 @@ impl CsrMatrix {
         }));
     }
 
+    /// Row `i`'s diagonal entry (0 where the row stores none) and whether the row couples
+    /// to another DOF: a non-zero off-diagonal value in a column `j` with `active[j]`
+    /// (any column without `active`). For an active row this is the row of the matrix
+    /// [`CsrMatrix::constrain`] would build from `active`, read without the copy.
+    ///
+    /// ```
+    /// let m = tlsmpm::linalg::CsrMatrix::from_triplets(
+    ///     3, 3, &[(0, 0, 2.0), (0, 1, 0.5), (1, 1, 3.0), (2, 2, 4.0)]);
+    /// assert_eq!(m.diagonal_and_coupling(0, None), (2.0, true));
+    /// assert_eq!(m.diagonal_and_coupling(0, Some(&[true, false, true])), (2.0, false));
+    /// assert_eq!(m.diagonal_and_coupling(2, None), (4.0, false));
+    /// ```
+    pub fn diagonal_and_coupling(&self, i: usize, active: Option<&[bool]>) -> (f64, bool) {
+        let (mut diagonal, mut coupled) = (0.0, false);
+        for k in self.row_start[i]..self.row_start[i + 1] {
+            let j = self.col_index[k];
+            if j == i {
+                diagonal = self.values[k];
+            } else if self.values[k] != 0.0 && active.is_none_or(|active| active[j]) {
+                coupled = true;
+            }
+        }
+        (diagonal, coupled)
+    }
+
     /// Whether row `i` stores no non-zero off-diagonal value: a DOF eliminated by
     /// [`CsrMatrix::constrain`] (an identity row), decoupled from the others.
     pub fn row_is_decoupled(&self, i: usize) -> bool {
@@ -186,6 +211,41 @@ impl CsrMatrix {
                     *yi = self.row_times(first + offset, x);
                 }
             });
+    }
+
+    /// `y[i K + s] = (A x_s)_i` for the `K = xs.len()` vectors `xs`, rows split over the
+    /// rayon pool in fixed blocks: one pass over `A` for all of them (each row is read
+    /// from memory once and from cache for the other vectors). Every entry is summed as by
+    /// [`CsrMatrix::mul_vec`], so each product is bitwise [`CsrMatrix::par_mul_vec`]'s.
+    ///
+    /// ```
+    /// let a = tlsmpm::linalg::CsrMatrix::from_triplets(
+    ///     2, 2, &[(0, 0, 2.0), (0, 1, 1.0), (1, 1, 3.0)]);
+    /// let mut y = vec![0.0; 4];
+    /// a.par_mul_vecs_interleaved(&[&[1.0, 1.0], &[1.0, -1.0]], &mut y);
+    /// assert_eq!(y, vec![3.0, 1.0, 3.0, -3.0]);
+    /// ```
+    pub fn par_mul_vecs_interleaved(&self, xs: &[&[f64]], y: &mut [f64]) {
+        use rayon::prelude::*;
+        let k = xs.len();
+        if k == 0 {
+            return;
+        }
+        let rows_of = |first: usize, y_block: &mut [f64]| {
+            for (offset, y_row) in y_block.chunks_exact_mut(k).enumerate() {
+                for (yi, x) in y_row.iter_mut().zip(xs) {
+                    *yi = self.row_times(first + offset, x);
+                }
+            }
+        };
+        let y = &mut y[..k * self.rows];
+        if self.rows < 2 * PAR_BLOCK {
+            rows_of(0, y);
+            return;
+        }
+        y.par_chunks_mut(k * PAR_BLOCK)
+            .enumerate()
+            .for_each(|(block, y_block)| rows_of(block * PAR_BLOCK, y_block));
     }
 
     /// `(A x)_i`, the row's products summed in storage order (as [`CsrMatrix::mul_vec`]).

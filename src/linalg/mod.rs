@@ -38,6 +38,16 @@ pub struct SolveStats {
     pub relative_residual: f64,
 }
 
+/// One of several restricted systems of the same matrix
+/// ([`LinearSolver::solve_restricted_many`]): its kept DOFs, right-hand side and initial
+/// guess / solution.
+#[derive(Debug)]
+pub struct RestrictedSystem<'a> {
+    pub keep: &'a [bool],
+    pub b: &'a [f64],
+    pub x: &'a mut [f64],
+}
+
 /// Most iterations of an iterative solve before it is reported as a failure.
 pub const MAX_ITERATIONS: usize = 10_000;
 
@@ -72,34 +82,62 @@ pub trait LinearSolver: Send {
     /// (P A P + I - P) x = P b,    P = diag(keep),
     /// ```
     ///
-    /// the system [`CsrMatrix::constrain`] builds, without the constrained copy: several
+    /// the system [`CsrMatrix::constrain`] builds, without the constrained copy. The set-up
+    /// (preconditioner) is that of the matrix with the DOFs `active` kept,
+    /// `(Q A Q + I - Q)`, `Q = diag(active)`, `keep` a subset of `active`: several
     /// restrictions of one matrix (the velocity components of a step with roller walls, each
-    /// holding its own DOFs) share one set-up for `a`. Where [`LinearSolver::restricts`] is
-    /// false this returns an error naming the solver.
+    /// holding its own DOFs) share one set-up for `a` and its `active` DOFs (the nodes with
+    /// mass), and `a` itself is never copied. Where [`LinearSolver::restricts`] is false
+    /// this returns an error naming the solver.
     fn solve_restricted(
         &mut self,
         a: &CsrMatrix,
+        active: &[bool],
         keep: &[bool],
         b: &[f64],
         x: &mut [f64],
     ) -> Result<SolveStats> {
-        let _ = (a, keep, b, x);
+        let _ = (a, active, keep, b, x);
         Err(crate::error::Error::Solver {
             solver: self.name().into(),
             reason: "this solver does not solve restricted systems".into(),
         })
     }
 
-    /// [`LinearSolver::solve_restricted`] with the set-up of the previous solve of `a`
-    /// (restricted or not), as [`LinearSolver::resolve`].
+    /// [`LinearSolver::solve_restricted`] with the set-up of the previous restricted solve
+    /// of `a` with the same `active` DOFs, as [`LinearSolver::resolve`].
     fn resolve_restricted(
         &mut self,
         a: &CsrMatrix,
+        active: &[bool],
         keep: &[bool],
         b: &[f64],
         x: &mut [f64],
     ) -> Result<SolveStats> {
-        self.solve_restricted(a, keep, b, x)
+        self.solve_restricted(a, active, keep, b, x)
+    }
+
+    /// The restricted systems `systems` of one `a` and its `active` DOFs, as
+    /// [`LinearSolver::solve_restricted`] on the first and
+    /// [`LinearSolver::resolve_restricted`] on the others (on all of them when `resolve`),
+    /// bit for bit, with each system's statistics in order. CG overrides it to run the
+    /// systems in lockstep, reading `a` once per iteration for all of them.
+    fn solve_restricted_many(
+        &mut self,
+        a: &CsrMatrix,
+        active: &[bool],
+        systems: &mut [RestrictedSystem<'_>],
+        resolve: bool,
+    ) -> Result<Vec<SolveStats>> {
+        let mut stats = Vec::with_capacity(systems.len());
+        for (s, system) in systems.iter_mut().enumerate() {
+            stats.push(if s == 0 && !resolve {
+                self.solve_restricted(a, active, system.keep, system.b, system.x)?
+            } else {
+                self.resolve_restricted(a, active, system.keep, system.b, system.x)?
+            });
+        }
+        Ok(stats)
     }
 }
 

@@ -483,6 +483,9 @@ impl PMultigrid {
 pub struct PmgPreconditioner {
     multigrid: PMultigrid,
     failure: Option<String>,
+    /// The constrained copy of the fine matrix when set up with an `active` mask (the
+    /// V-cycle smooths with the fine matrix itself); `None` without one.
+    constrained: Option<CsrMatrix>,
 }
 
 /// CG preconditioned by a p-multigrid V-cycle.
@@ -509,6 +512,7 @@ impl PmgPreconditioner {
         Ok(Self {
             multigrid,
             failure: None,
+            constrained: None,
         })
     }
 
@@ -532,9 +536,23 @@ impl Preconditioner for PmgPreconditioner {
         "pmg_cg"
     }
 
-    fn setup(&mut self, a: &CsrMatrix) -> Result<()> {
+    /// With `active`, the V-cycle needs the constrained fine matrix itself: it is copied
+    /// here, once per set-up.
+    fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
         self.failure = None;
-        self.multigrid.setup(a).map_err(|e| match e {
+        let fine = match active {
+            Some(active) => {
+                let constrained = self.constrained.get_or_insert_with(|| a.clone());
+                constrained.clone_from(a);
+                constrained.constrain(active);
+                &*constrained
+            }
+            None => {
+                self.constrained = None;
+                a
+            }
+        };
+        self.multigrid.setup(fine).map_err(|e| match e {
             Error::Solver { reason, .. } => Error::Solver {
                 solver: "pmg_cg".into(),
                 reason,
@@ -543,10 +561,12 @@ impl Preconditioner for PmgPreconditioner {
         })
     }
 
-    /// `z = V(r)`; a failed coarse solve makes `z` NaN, which CG reports as a breakdown.
+    /// `z = V(r)` (with the constrained copy of the set-up where there is one); a failed
+    /// coarse solve makes `z` NaN, which CG reports as a breakdown.
     fn apply(&mut self, a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
         z.fill(0.0);
-        if let Err(e) = self.multigrid.cycle(a, z, r, None) {
+        let fine = self.constrained.as_ref().unwrap_or(a);
+        if let Err(e) = self.multigrid.cycle(fine, z, r, None) {
             self.failure = Some(e.to_string());
             z.fill(f64::NAN);
         }

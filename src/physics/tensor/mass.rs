@@ -11,11 +11,13 @@
 //! values are 0 and their rows and columns act as those of the identity.
 //!
 //! **One set-up per step.** With a solver that solves restricted systems
-//! ([`LinearSolver::restricts`]: `cg`, `pcg`, `kron`, `pmg_cg`) one copy of the assembled
-//! `M^C` is constrained on the massless nodes only, the solver is set up once for it, and
-//! every component is solved on its own DOFs inside the iteration
-//! (`(P_c M P_c + I - P_c) x = P_c b`, [`LinearSolver::solve_restricted`]): roller walls
-//! cost neither a matrix copy nor a set-up per component. For `cg`, `pcg` and `kron` the
+//! ([`LinearSolver::restricts`]: `cg`, `pcg`, `kron`, `pmg_cg`) the assembled `M^C` is used
+//! as it is: the solver is set up once for it with the nodes with mass as its active DOFs
+//! (the massless rows act as identity rows), and every component is solved on its own
+//! DOFs inside the iteration (`(P_c M P_c + I - P_c) x = P_c b`,
+//! [`LinearSolver::solve_restricted`]): neither the massless nodes nor roller walls cost a
+//! matrix copy, and roller walls cost no set-up per component (`pmg_cg` alone copies the
+//! matrix once per step, for its smoother). For `cg`, `pcg` and `kron` the
 //! iterates are bitwise those of the separately constrained systems (the projections zero
 //! exactly the entries the identity rows zero). The other solvers (`direct`, `pmg`, and
 //! the distributed CG) need the constrained matrix itself: components whose eliminated
@@ -28,7 +30,7 @@ use super::boundary::NodeConstraints;
 use crate::config::MassKind;
 use crate::error::{Error, Result};
 use crate::linalg::MAX_ITERATIONS;
-use crate::linalg::{CsrMatrix, LinearSolver};
+use crate::linalg::{CsrMatrix, LinearSolver, RestrictedSystem, SolveStats};
 use crate::mapping::tensor_direct::TensorGridFields;
 use crate::physics::distributed::{DistributedCg, RankContext};
 use crate::physics::mass::MIN_RELATIVE_MASS;
@@ -44,6 +46,8 @@ struct ComponentSystem {
     /// step; `None` when it has its own.
     shared_with: Option<usize>,
     matrix: Option<CsrMatrix>,
+    /// The right-hand side of the component's solve (0 on its eliminated DOFs).
+    rhs: Vec<f64>,
     acceleration: Vec<f64>,
     velocity: Vec<f64>,
     solved_this_step: bool,
@@ -54,13 +58,14 @@ pub struct TensorMassSolve<const D: usize> {
     pub acceleration: MassKind,
     pub velocity: MassKind,
     components: Vec<ComponentSystem>,
-    /// Whether the components are solved as restrictions of one matrix constrained on the
-    /// massless nodes only (`mass_kept`), with component 0's solver.
+    /// Whether the components are solved as restrictions of the assembled matrix with the
+    /// nodes with mass (`mass_kept`) active, with component 0's solver.
     restricting: bool,
-    /// The nodes with mass (the kept DOFs of the shared matrix when `restricting`).
+    /// The nodes with mass (the active DOFs of the shared set-up when `restricting`).
     mass_kept: Vec<bool>,
     held: Vec<[bool; D]>,
-    rhs: Vec<f64>,
+    /// Whether [`TensorMassSolve::prepare`] has run.
+    prepared: bool,
     name: &'static str,
     /// `solver.tolerance` (for the solvers of a distributed run).
     tolerance: f64,
@@ -94,6 +99,7 @@ impl<const D: usize> TensorMassSolve<D> {
                 keep: vec![false; dofs],
                 shared_with: None,
                 matrix: None,
+                rhs: vec![0.0; dofs],
                 acceleration: vec![0.0; dofs],
                 velocity: vec![0.0; dofs],
                 solved_this_step: false,
@@ -106,7 +112,7 @@ impl<const D: usize> TensorMassSolve<D> {
             restricting,
             mass_kept: vec![false; dofs],
             held,
-            rhs: vec![0.0; dofs],
+            prepared: false,
             name,
             tolerance,
             solves: 0,
@@ -120,19 +126,27 @@ impl<const D: usize> TensorMassSolve<D> {
         self.name
     }
 
-    /// Component `c`'s constrained matrix of the last step and its kept DOFs (benchmarks
-    /// and diagnostics: a copy where the step solved it as a restriction of the shared
-    /// matrix); `None` before the first step or for `c >= D`.
-    pub fn constrained_system(&self, c: usize) -> Option<(Cow<'_, CsrMatrix>, &[bool])> {
+    /// Component `c`'s constrained matrix of the last step and its kept DOFs, where
+    /// `assembled` is the step's assembled `M^C` (benchmarks and diagnostics: a copy where
+    /// the step solved it as a restriction of `assembled`); `None` before the first step or
+    /// for `c >= D`.
+    pub fn constrained_system<'a>(
+        &'a self,
+        c: usize,
+        assembled: &'a CsrMatrix,
+    ) -> Option<(Cow<'a, CsrMatrix>, &'a [bool])> {
         let system = self.components.get(c)?;
+        if !self.prepared {
+            return None;
+        }
+        if self.restricting {
+            let mut constrained = assembled.clone();
+            constrained.constrain(&system.keep);
+            return Some((Cow::Owned(constrained), &system.keep));
+        }
         let owner = &self.components[system.shared_with.unwrap_or(c)];
         let matrix = owner.matrix.as_ref()?;
-        let matrix_kept = if self.restricting {
-            &self.mass_kept
-        } else {
-            &owner.keep
-        };
-        if *matrix_kept == system.keep {
+        if owner.keep == system.keep {
             return Some((Cow::Borrowed(matrix), &system.keep));
         }
         let mut constrained = matrix.clone();
@@ -174,8 +188,10 @@ impl<const D: usize> TensorMassSolve<D> {
     }
 
     /// The constrained systems of this step's `matrix` and masses; `largest` is the
-    /// largest nodal mass (over all ranks in a distributed run).
+    /// largest nodal mass (over all ranks in a distributed run). A restricting solver
+    /// needs no copy: the solves take `matrix` itself.
     pub fn prepare(&mut self, mass: &[f64], largest: f64, matrix: &CsrMatrix) {
+        self.prepared = true;
         let threshold = MIN_RELATIVE_MASS * largest;
         for (kept, &m) in self.mass_kept.iter_mut().zip(mass) {
             *kept = m > threshold;
@@ -195,26 +211,24 @@ impl<const D: usize> TensorMassSolve<D> {
                     .iter()
                     .position(|e| e.shared_with.is_none() && e.keep == system.keep)
             };
-            if system.shared_with.is_none() {
-                // The shared copy of a restricting solver keeps every node with mass.
-                let kept = if self.restricting {
-                    &self.mass_kept
-                } else {
-                    &system.keep
-                };
+            if system.shared_with.is_none() && !self.restricting {
                 let constrained = system.matrix.get_or_insert_with(|| matrix.clone());
                 constrained.values.copy_from_slice(&matrix.values);
-                constrained.constrain(kept);
+                constrained.constrain(&system.keep);
             }
         }
     }
 
     /// `M a_c = f_c` for every component into `fields.acceleration` (consistent
-    /// acceleration only; the caller divides by the lumped mass otherwise).
-    pub fn accelerations(&mut self, fields: &mut TensorGridFields<D>) -> Result<()> {
-        for c in 0..D {
-            self.solve(c, true, |i| fields.force[i][c])?;
-            let system = &self.components[c];
+    /// acceleration only; the caller divides by the lumped mass otherwise), with `matrix`
+    /// the `M^C` given to [`TensorMassSolve::prepare`].
+    pub fn accelerations(
+        &mut self,
+        fields: &mut TensorGridFields<D>,
+        matrix: &CsrMatrix,
+    ) -> Result<()> {
+        self.solve_components(true, matrix, |i, c| fields.force[i][c])?;
+        for (c, system) in self.components.iter().enumerate() {
             for (a, &x) in fields.acceleration.iter_mut().zip(&system.acceleration) {
                 a[c] = x;
             }
@@ -222,11 +236,15 @@ impl<const D: usize> TensorMassSolve<D> {
         Ok(())
     }
 
-    /// `M v_c = p_c` for every component into `fields.velocity`.
-    pub fn velocities(&mut self, fields: &mut TensorGridFields<D>) -> Result<()> {
-        for c in 0..D {
-            self.solve(c, false, |i| fields.momentum[i][c])?;
-            let system = &self.components[c];
+    /// `M v_c = p_c` for every component into `fields.velocity` (`matrix` as in
+    /// [`TensorMassSolve::accelerations`]).
+    pub fn velocities(
+        &mut self,
+        fields: &mut TensorGridFields<D>,
+        matrix: &CsrMatrix,
+    ) -> Result<()> {
+        self.solve_components(false, matrix, |i, c| fields.momentum[i][c])?;
+        for (c, system) in self.components.iter().enumerate() {
             for (v, &x) in fields.velocity.iter_mut().zip(&system.velocity) {
                 v[c] = x;
             }
@@ -234,57 +252,115 @@ impl<const D: usize> TensorMassSolve<D> {
         Ok(())
     }
 
-    /// Solve component `c`'s system with right-hand side `b(i)` (0 on eliminated DOFs),
-    /// warm-started from its previous solution, with the matrix and solver it shares
-    /// (restricted to its DOFs where the solver restricts).
-    fn solve(&mut self, c: usize, acceleration: bool, b: impl Fn(usize) -> f64) -> Result<()> {
+    /// Solve every component `c` with right-hand side `b(i, c)` (0 on its eliminated
+    /// DOFs), warm-started from its previous solution: with a restricting solver all
+    /// components at once, as restrictions of `assembled`
+    /// ([`LinearSolver::solve_restricted_many`], CG in lockstep); otherwise one after the
+    /// other, each with the constrained copy and solver it shares.
+    fn solve_components(
+        &mut self,
+        acceleration: bool,
+        assembled: &CsrMatrix,
+        b: impl Fn(usize, usize) -> f64,
+    ) -> Result<()> {
+        for (c, component) in self.components.iter_mut().enumerate() {
+            let ComponentSystem { keep, rhs, .. } = component;
+            for (i, (r, &k)) in rhs.iter_mut().zip(keep.iter()).enumerate() {
+                *r = if k { b(i, c) } else { 0.0 };
+            }
+            let x = if acceleration {
+                &mut component.acceleration
+            } else {
+                &mut component.velocity
+            };
+            for (xi, &k) in x.iter_mut().zip(&component.keep) {
+                if !k || !xi.is_finite() {
+                    *xi = 0.0;
+                }
+            }
+        }
+        if !self.restricting {
+            return (0..D).try_for_each(|c| self.solve(c, acceleration));
+        }
+        let mut shared_solver = None;
+        let mut set_up = false;
+        let mut systems = Vec::with_capacity(D);
+        for component in &mut self.components {
+            let ComponentSystem {
+                solver,
+                keep,
+                rhs,
+                acceleration: a,
+                velocity: v,
+                solved_this_step,
+                ..
+            } = component;
+            if shared_solver.is_none() {
+                set_up = std::mem::replace(solved_this_step, true);
+                shared_solver = Some(solver);
+            }
+            systems.push(RestrictedSystem {
+                keep,
+                b: rhs,
+                x: if acceleration { a } else { v },
+            });
+        }
+        let Some(solver) = shared_solver else {
+            return Ok(());
+        };
+        let solver = solver
+            .get_mut()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let stats =
+            solver.solve_restricted_many(assembled, &self.mass_kept, &mut systems, set_up)?;
+        for s in stats {
+            self.count(s);
+        }
+        Ok(())
+    }
+
+    /// Solve component `c`'s constrained system (its right-hand side and guess in place)
+    /// with the matrix and solver it shares.
+    fn solve(&mut self, c: usize, acceleration: bool) -> Result<()> {
         let owner = self.components[c].shared_with.unwrap_or(c);
         let component = &mut self.components[c];
-        let keep = std::mem::take(&mut component.keep);
+        let rhs = std::mem::take(&mut component.rhs);
         let mut x = std::mem::take(if acceleration {
             &mut component.acceleration
         } else {
             &mut component.velocity
         });
-        for (i, r) in self.rhs.iter_mut().enumerate() {
-            *r = if keep[i] { b(i) } else { 0.0 };
-        }
-        for (xi, &k) in x.iter_mut().zip(&keep) {
-            if !k || !xi.is_finite() {
-                *xi = 0.0;
-            }
-        }
         let system = &mut self.components[owner];
         let solver = system
             .solver
             .get_mut()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
         let set_up = system.solved_this_step;
-        let stats = match (system.matrix.as_ref(), self.restricting) {
-            (None, _) => Err(Error::Solver {
+        let stats = match system.matrix.as_ref() {
+            None => Err(Error::Solver {
                 solver: solver.name().into(),
-                reason: "no consistent mass matrix was assembled".into(),
+                reason: "no consistent mass matrix was prepared".into(),
             }),
-            (Some(matrix), true) if set_up => {
-                solver.resolve_restricted(matrix, &keep, &self.rhs, &mut x)
-            }
-            (Some(matrix), true) => solver.solve_restricted(matrix, &keep, &self.rhs, &mut x),
-            (Some(matrix), false) if set_up => solver.resolve(matrix, &self.rhs, &mut x),
-            (Some(matrix), false) => solver.solve(matrix, &self.rhs, &mut x),
+            Some(matrix) if set_up => solver.resolve(matrix, &rhs, &mut x),
+            Some(matrix) => solver.solve(matrix, &rhs, &mut x),
         };
         system.solved_this_step = true;
         let component = &mut self.components[c];
-        component.keep = keep;
+        component.rhs = rhs;
         if acceleration {
             component.acceleration = x;
         } else {
             component.velocity = x;
         }
-        let stats = stats?;
+        self.count(stats?);
+        Ok(())
+    }
+
+    /// Add one solve's statistics to the totals.
+    fn count(&mut self, stats: SolveStats) {
         self.solves += 1;
         self.total_iterations += stats.iterations;
         self.max_iterations = self.max_iterations.max(stats.iterations);
-        Ok(())
     }
 }
 
@@ -292,7 +368,6 @@ impl<const D: usize> TensorMassSolve<D> {
 mod tests {
     use super::*;
     use crate::linalg::direct::DirectCholesky;
-    use crate::linalg::SolveStats;
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
 
@@ -323,22 +398,24 @@ mod tests {
         fn solve_restricted(
             &mut self,
             a: &CsrMatrix,
+            active: &[bool],
             keep: &[bool],
             b: &[f64],
             x: &mut [f64],
         ) -> Result<SolveStats> {
             self.setups.fetch_add(1, Ordering::Relaxed);
-            self.inner.solve_restricted(a, keep, b, x)
+            self.inner.solve_restricted(a, active, keep, b, x)
         }
         fn resolve_restricted(
             &mut self,
             a: &CsrMatrix,
+            active: &[bool],
             keep: &[bool],
             b: &[f64],
             x: &mut [f64],
         ) -> Result<SolveStats> {
             self.resolves.fetch_add(1, Ordering::Relaxed);
-            self.inner.resolve_restricted(a, keep, b, x)
+            self.inner.resolve_restricted(a, active, keep, b, x)
         }
     }
 
@@ -390,8 +467,8 @@ mod tests {
             fields.momentum[i] = [0.5 * i as f64, 1.0];
         }
         solve.prepare(&[1.0; 5], 1.0, &matrix);
-        solve.accelerations(&mut fields).unwrap();
-        solve.velocities(&mut fields).unwrap();
+        solve.accelerations(&mut fields, &matrix).unwrap();
+        solve.velocities(&mut fields, &matrix).unwrap();
         (
             setups.load(Ordering::Relaxed),
             resolves.load(Ordering::Relaxed),

@@ -144,7 +144,8 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorTimeStepper<D>
         TensorStepper::timings(self)
     }
     fn velocity_system(&self, c: usize) -> Option<(Cow<'_, CsrMatrix>, Vec<f64>)> {
-        let (matrix, keep) = self.mass_solve.as_ref()?.constrained_system(c)?;
+        let assembled = self.mapping.consistent_mass()?;
+        let (matrix, keep) = self.mass_solve.as_ref()?.constrained_system(c, assembled)?;
         let momentum = self
             .fields
             .momentum

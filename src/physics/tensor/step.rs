@@ -32,6 +32,7 @@ use crate::config::Scheme;
 use crate::error::{Error, Result};
 use crate::grid::shape_cache::with_shape_source;
 use crate::grid::{Basis, EvaluateTensor, TensorBasis};
+use crate::linalg::CsrMatrix;
 use crate::mapping::tensor::TensorMapping;
 use crate::mapping::tensor_direct::{TensorBody, TensorDirectMapping, TensorGridFields};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
@@ -242,7 +243,9 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
         };
         // 2. Accelerations.
         match &mut self.mass_solve {
-            Some(solve) if consistent_acceleration => solve.accelerations(fields)?,
+            Some(solve) if consistent_acceleration => {
+                solve.accelerations(fields, assembled_mass(&self.mapping)?)?
+            }
             _ => divide_by_mass(&fields.mass, &fields.force, &mut fields.acceleration),
         }
         self.constraints.apply(&mut fields.acceleration);
@@ -263,13 +266,17 @@ impl<const D: usize, B: Basis, M: TensorMapping<D>> TensorStepper<D, B, M> {
                 }
                 self.timings.velocity_and_momentum_seconds += clock.lap();
                 match &mut self.mass_solve {
-                    Some(solve) if consistent_velocity => solve.velocities(fields)?,
+                    Some(solve) if consistent_velocity => {
+                        solve.velocities(fields, assembled_mass(&self.mapping)?)?
+                    }
                     _ => divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity),
                 }
             }
             Scheme::Usl => {
                 match &mut self.mass_solve {
-                    Some(solve) if consistent_velocity => solve.velocities(fields)?,
+                    Some(solve) if consistent_velocity => {
+                        solve.velocities(fields, assembled_mass(&self.mapping)?)?
+                    }
                     _ => divide_by_mass(&fields.mass, &fields.momentum, &mut fields.velocity),
                 }
                 for (v, a) in fields.velocity.iter_mut().zip(&fields.acceleration) {
@@ -516,4 +523,13 @@ fn particle_momentum<const D: usize>(p: &TensorParticles<D>) -> ([f64; 3], f64) 
         out
     });
     ([mx, my, mz], scale)
+}
+
+/// The consistent mass `mapping` assembled this step (an error where it assembled none:
+/// a mapping without `M^C` paired with a consistent-mass solve).
+fn assembled_mass<const D: usize, M: TensorMapping<D>>(mapping: &M) -> Result<&CsrMatrix> {
+    mapping.consistent_mass().ok_or_else(|| Error::Solver {
+        solver: "consistent mass".into(),
+        reason: "the mapping assembled no consistent mass matrix".into(),
+    })
 }
