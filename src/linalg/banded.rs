@@ -100,6 +100,50 @@ impl BandedCholesky {
             x[i] = s / l[i * width + p];
         }
     }
+
+    /// [`BandedCholesky::solve_factored`] on `LANES` lines of length `n` at once: `b` and
+    /// `x` hold `LANES * n` values, line after line. The lines' substitutions run
+    /// interleaved, so their dependency chains (a division per unknown) overlap; each
+    /// line's operations are those of its own solve in the same order, so each line is
+    /// bitwise [`BandedCholesky::solve_factored`]'s.
+    pub fn solve_factored_lines<const LANES: usize>(&self, b: &[f64], x: &mut [f64]) {
+        let p = self.bandwidth;
+        let width = p + 1;
+        let n = b.len() / LANES;
+        let l = &self.factor;
+        for i in 0..n {
+            let mut s = [0.0; LANES];
+            for (lane, s) in s.iter_mut().enumerate() {
+                *s = b[lane * n + i];
+            }
+            for k in i.saturating_sub(p)..i {
+                let lik = l[i * width + (k + p - i)];
+                for (lane, s) in s.iter_mut().enumerate() {
+                    *s -= lik * x[lane * n + k];
+                }
+            }
+            let diagonal = l[i * width + p];
+            for (lane, s) in s.iter().enumerate() {
+                x[lane * n + i] = s / diagonal;
+            }
+        }
+        for i in (0..n).rev() {
+            let mut s = [0.0; LANES];
+            for (lane, s) in s.iter_mut().enumerate() {
+                *s = x[lane * n + i];
+            }
+            for k in i + 1..(i + p + 1).min(n) {
+                let lki = l[k * width + (i + p - k)];
+                for (lane, s) in s.iter_mut().enumerate() {
+                    *s -= lki * x[lane * n + k];
+                }
+            }
+            let diagonal = l[i * width + p];
+            for (lane, s) in s.iter().enumerate() {
+                x[lane * n + i] = s / diagonal;
+            }
+        }
+    }
 }
 
 fn failure(reason: String) -> Error {
@@ -205,5 +249,22 @@ mod tests {
             .solve(&a, &[1.0, 1.0], &mut x)
             .unwrap_err();
         assert!(err.to_string().contains("not positive definite"), "{err}");
+    }
+
+    #[test]
+    fn lines_solved_together_are_each_line_solved_alone_bit_for_bit() {
+        let space = crate::linalg::assembly::SplineSpace::new(3, 9, 1.0).unwrap();
+        let m = crate::linalg::assembly::mass_1d(&space, 4, |q| 1.0 + q.x[0] * q.x[0]);
+        let mut factor = BandedCholesky::new();
+        factor.factor(&m).unwrap();
+        let n = m.rows;
+        let b: Vec<f64> = (0..4 * n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut together = vec![0.0; 4 * n];
+        factor.solve_factored_lines::<4>(&b, &mut together);
+        for (line, x) in together.chunks(n).enumerate() {
+            let mut alone = vec![0.0; n];
+            factor.solve_factored(&b[line * n..(line + 1) * n], &mut alone);
+            assert_eq!(x, &alone[..]);
+        }
     }
 }

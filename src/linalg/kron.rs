@@ -118,16 +118,31 @@ impl KroneckerFactors {
     }
 }
 
-/// Solve `M x = b` on every contiguous line of length `n`.
+/// Lines solved together by [`BandedCholesky::solve_factored_lines`].
+const LANES: usize = 4;
+
+/// Solve `M x = b` on every contiguous line of length `n`, `LANES` lines at a time (each
+/// line bitwise its own solve, so the result depends neither on the grouping nor on the
+/// thread count).
 fn solve_lines(factor: &BandedCholesky, n: usize, b: &[f64], x: &mut [f64]) {
-    if b.len() >= PARALLEL_MIN_DOFS {
-        x.par_chunks_mut(n)
-            .zip(b.par_chunks(n))
-            .for_each(|(xl, bl)| factor.solve_factored(bl, xl));
-    } else {
-        for (xl, bl) in x.chunks_mut(n).zip(b.chunks(n)) {
-            factor.solve_factored(bl, xl);
+    let group = LANES * n;
+    let solve_group = |(x_group, b_group): (&mut [f64], &[f64])| {
+        if x_group.len() == group {
+            factor.solve_factored_lines::<LANES>(b_group, x_group);
+        } else {
+            for (xl, bl) in x_group.chunks_mut(n).zip(b_group.chunks(n)) {
+                factor.solve_factored(bl, xl);
+            }
         }
+    };
+    if b.len() >= PARALLEL_MIN_DOFS {
+        x.par_chunks_mut(group)
+            .zip(b.par_chunks(group))
+            .for_each(solve_group);
+    } else {
+        x.chunks_mut(group)
+            .zip(b.chunks(group))
+            .for_each(solve_group);
     }
 }
 
