@@ -26,8 +26,9 @@ pub trait Preconditioner: Send {
     fn solver_name(&self) -> &'static str;
 
     /// Prepare for the matrix `a` (called at the start of every solve), or, with
-    /// `active`, for `(P A P + I - P)`, `P = diag(active)`: the matrix
-    /// [`CsrMatrix::constrain`] would build, without the copy.
+    /// `active` (one entry per row of `a`, else an error), for `(P A P + I - P)`,
+    /// `P = diag(active)`: the matrix [`CsrMatrix::constrain`] would build, without the
+    /// copy.
     fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()>;
 
     /// `z = P^{-1} r`.
@@ -61,6 +62,7 @@ impl Preconditioner for Jacobi {
         "pcg"
     }
     fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
+        super::check_active("pcg", a, active)?;
         a.diagonal_into(&mut self.inverse_diagonal);
         for (i, d) in self.inverse_diagonal.iter_mut().enumerate() {
             if active.is_some_and(|active| !active[i]) {
@@ -348,6 +350,9 @@ mod tests {
         let err = shared.solve_restricted(&a, &all, &keep[1..], &b, &mut restricted);
         assert!(matches!(err, Err(Error::Solver { .. })));
         let err = shared.solve_restricted(&a, &all[1..], &keep, &b, &mut restricted);
+        assert!(matches!(err, Err(Error::Solver { .. })));
+        // So is a preconditioner set up with an active mask of the wrong length.
+        let err = Jacobi::default().setup(&a, Some(&all[1..]));
         assert!(matches!(err, Err(Error::Solver { .. })));
     }
 

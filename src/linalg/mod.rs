@@ -158,6 +158,22 @@ pub(crate) fn check_dimensions(solver: &str, a: &CsrMatrix, b: &[f64], x: &[f64]
     })
 }
 
+/// `Err(Error::Solver)` naming `solver` unless `active` (where given) has one entry per row
+/// of `a`.
+pub(crate) fn check_active(solver: &str, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
+    match active {
+        Some(active) if active.len() != a.rows => Err(crate::error::Error::Solver {
+            solver: solver.into(),
+            reason: format!(
+                "active mask of length {} for a matrix of {} rows",
+                active.len(),
+                a.rows
+            ),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// `||b - A x|| / ||b||` (0 for `b = 0`), with `product` as scratch for `A x`: the residual a
 /// direct solve reports.
 pub(crate) fn relative_residual(
