@@ -62,7 +62,7 @@ impl Preconditioner for Jacobi {
         "pcg"
     }
     fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
-        super::check_active("pcg", a, active)?;
+        super::check_mask("pcg", "active", a, active)?;
         a.diagonal_into(&mut self.inverse_diagonal);
         for (i, d) in self.inverse_diagonal.iter_mut().enumerate() {
             if active.is_some_and(|active| !active[i]) {

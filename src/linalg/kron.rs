@@ -196,13 +196,13 @@ impl Preconditioner for KroneckerPreconditioner {
     /// only the active columns, as in the matrix [`CsrMatrix::constrain`] builds.
     fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
         let n = a.rows;
-        if n != self.kronecker.len() || active.is_some_and(|m| m.len() != n) {
+        if n != self.kronecker.len() {
             return Err(failure(format!(
-                "matrix has {n} rows (active mask {}), the Kronecker factors {} DOFs",
-                active.map_or(n, <[bool]>::len),
+                "matrix has {n} rows, the Kronecker factors {} DOFs",
                 self.kronecker.len()
             )));
         }
+        super::check_mask("kron", "active", a, active)?;
         self.inverse_sqrt_scaling.resize(n, 0.0);
         self.decoupled_inverse.resize(n, 0.0);
         self.scaled.resize(n, 0.0);

@@ -158,15 +158,20 @@ pub(crate) fn check_dimensions(solver: &str, a: &CsrMatrix, b: &[f64], x: &[f64]
     })
 }
 
-/// `Err(Error::Solver)` naming `solver` unless `active` (where given) has one entry per row
-/// of `a`.
-pub(crate) fn check_active(solver: &str, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
-    match active {
-        Some(active) if active.len() != a.rows => Err(crate::error::Error::Solver {
+/// `Err(Error::Solver)` naming `solver` unless the DOF mask `mask` (where given; `what`
+/// names it: "active", "kept") has one entry per row of `a`.
+pub(crate) fn check_mask(
+    solver: &str,
+    what: &str,
+    a: &CsrMatrix,
+    mask: Option<&[bool]>,
+) -> Result<()> {
+    match mask {
+        Some(mask) if mask.len() != a.rows => Err(crate::error::Error::Solver {
             solver: solver.into(),
             reason: format!(
-                "active mask of length {} for a matrix of {} rows",
-                active.len(),
+                "{what} mask of length {} for a matrix of {} rows",
+                mask.len(),
                 a.rows
             ),
         }),

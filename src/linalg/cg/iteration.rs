@@ -10,7 +10,7 @@
 
 use super::{dot, Pcg, Preconditioner};
 use crate::error::{Error, Result};
-use crate::linalg::{CsrMatrix, RestrictedSystem, SolveStats};
+use crate::linalg::{check_dimensions, check_mask, CsrMatrix, RestrictedSystem, SolveStats};
 
 /// The vectors of one system's iteration.
 #[derive(Clone, Debug, Default)]
@@ -113,21 +113,11 @@ impl<P: Preconditioner> Pcg<P> {
         systems: &mut [System<'_>],
     ) -> Result<Vec<SolveStats>> {
         let n = a.rows;
+        let name = self.preconditioner.solver_name();
+        check_mask(name, "active", a, active)?;
         for system in systems.iter() {
-            super::super::check_dimensions(
-                self.preconditioner.solver_name(),
-                a,
-                system.b,
-                system.x,
-            )?;
-            let keep_len = system.keep.map_or(n, <[bool]>::len);
-            let active_len = active.map_or(n, <[bool]>::len);
-            if keep_len != n || active_len != n {
-                return Err(self.failure(format!(
-                    "restriction of lengths {active_len} (active) and {keep_len} (kept) for a \
-                     system of {n} DOFs"
-                )));
-            }
+            check_dimensions(name, a, system.b, system.x)?;
+            check_mask(name, "kept", a, system.keep)?;
         }
         let count = systems.len();
         self.systems.resize_with(count, CgVectors::default);

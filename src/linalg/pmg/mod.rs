@@ -539,7 +539,7 @@ impl Preconditioner for PmgPreconditioner {
     /// With `active`, the V-cycle needs the constrained fine matrix itself: it is copied
     /// here, once per set-up.
     fn setup(&mut self, a: &CsrMatrix, active: Option<&[bool]>) -> Result<()> {
-        super::check_active("pmg_cg", a, active)?;
+        super::check_mask("pmg_cg", "active", a, active)?;
         self.failure = None;
         let fine = match active {
             Some(active) => {
