@@ -12,6 +12,10 @@
 //! `rms_displacement`) of its `study.csv` is drawn against the cell size `h` on log-log
 //! axes, one line per study — the comparison plot of several methods' convergence.
 //!
+//! With `--axis time` a column of each run's `history.csv` (e.g. `kinetic_energy`) is drawn
+//! against the time, one line per run; `total_energy` is the sum of `kinetic_energy` and
+//! `strain_energy` — the energy plot of long runs.
+//!
 //! Bad input (a missing file, a column not in the header, an unparsable number, more labels
 //! than runs) is an input error naming the path, line or column; nothing panics.
 
@@ -28,6 +32,8 @@ pub enum Axis {
     Current,
     /// Cell size `h` of a study (`study.csv`, log-log axes).
     MeshSize,
+    /// Time (`history.csv`, one line per run).
+    Time,
 }
 
 impl Axis {
@@ -37,6 +43,7 @@ impl Axis {
             "x0" => Some(Axis::Initial),
             "x" => Some(Axis::Current),
             "h" => Some(Axis::MeshSize),
+            "time" => Some(Axis::Time),
             _ => None,
         }
     }
@@ -47,6 +54,7 @@ impl Axis {
             Axis::Initial => ("x0", "initial position X [m]"),
             Axis::Current => ("x", "x [m]"),
             Axis::MeshSize => ("h", "cell size h [m]"),
+            Axis::Time => ("time", "time t [s]"),
         }
     }
 
@@ -54,6 +62,7 @@ impl Axis {
     fn file(self) -> &'static str {
         match self {
             Axis::MeshSize => "study.csv",
+            Axis::Time => "history.csv",
             _ => "particles.csv",
         }
     }
@@ -137,6 +146,22 @@ impl Table {
         })
     }
 
+    /// With `kinetic_energy` and `strain_energy` columns (a `history.csv`), also their sum
+    /// `total_energy`.
+    pub fn with_total_energy(mut self) -> Self {
+        if self.get("total_energy").is_some() {
+            return self;
+        }
+        if let (Some(kinetic), Some(stored)) =
+            (self.get("kinetic_energy"), self.get("strain_energy"))
+        {
+            let total = kinetic.iter().zip(stored).map(|(k, s)| k + s).collect();
+            self.header.push("total_energy".into());
+            self.columns.push(total);
+        }
+        self
+    }
+
     /// The column called `name`, or `None`.
     pub fn get(&self, name: &str) -> Option<&[f64]> {
         let k = self.header.iter().position(|h| h == name)?;
@@ -202,7 +227,7 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
     let mut data = Vec::with_capacity(options.runs.len());
     let mut exact = None;
     for (k, run) in options.runs.iter().enumerate() {
-        let table = Table::read(&run.join(options.axis.file()))?;
+        let table = Table::read(&run.join(options.axis.file()))?.with_total_energy();
         let label = match options.labels.get(k) {
             Some(label) => label.clone(),
             None => default_label(run),
@@ -236,6 +261,7 @@ pub fn overlay(options: &OverlayOptions) -> Result<PathBuf> {
         y: y.into(),
         style: match options.axis {
             Axis::MeshSize => Style::LinePoints,
+            Axis::Time => Style::Line,
             _ => Style::Points,
         },
     }));
@@ -302,6 +328,32 @@ mod tests {
         };
         assert_eq!(overlay(&options).unwrap(), out);
         assert!(std::fs::read_to_string(&out).unwrap().contains("tls"));
+    }
+
+    #[test]
+    fn time_mode_reads_history_csv_with_a_total_energy_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = dir.path().join("run");
+        std::fs::create_dir_all(&run).unwrap();
+        let history = run.join("history.csv");
+        std::fs::write(
+            &history,
+            "step,time,kinetic_energy,strain_energy\n1,0.1,3.0,1.0\n2,0.2,2.5,1.25\n",
+        )
+        .unwrap();
+        let table = Table::read(&history).unwrap().with_total_energy();
+        assert_eq!(table.get("total_energy"), Some(&[4.0, 3.75][..]));
+        let out = dir.path().join("energy.svg");
+        let options = OverlayOptions {
+            runs: vec![run],
+            field: "total_energy".into(),
+            axis: Axis::parse("time").unwrap(),
+            labels: vec![],
+            exact: false,
+            out: Some(out.clone()),
+        };
+        assert_eq!(overlay(&options).unwrap(), out);
+        assert!(std::fs::read_to_string(&out).unwrap().contains("<svg"));
     }
 
     #[test]

@@ -138,8 +138,9 @@ enum Command {
         /// Column to plot (any name in the header, e.g. stress, pore_pressure, u).
         #[arg(long)]
         field: String,
-        /// Horizontal axis: x0 (initial position), x (current position), or h (cell size of
-        /// study directories: their study.csv on log-log axes).
+        /// Horizontal axis: x0 (initial position), x (current position), h (cell size of
+        /// study directories: their study.csv on log-log axes) or time (history.csv, with
+        /// total_energy = kinetic_energy + strain_energy).
         #[arg(long, default_value = "x0")]
         axis: String,
         /// Series label, one per run in order (repeatable) [default: the directory name
@@ -464,8 +465,9 @@ fn execute(cli: Cli) -> anyhow::Result<()> {
             exact,
             out,
         } => {
-            let axis = Axis::parse(&axis)
-                .ok_or_else(|| tlsmpm::Error::invalid("--axis", &axis, "expected x0, x or h"))?;
+            let axis = Axis::parse(&axis).ok_or_else(|| {
+                tlsmpm::Error::invalid("--axis", &axis, "expected x0, x, h or time")
+            })?;
             let options = OverlayOptions {
                 runs,
                 field,
