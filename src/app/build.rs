@@ -5,7 +5,10 @@
 //! `method.subpoints`.
 
 use crate::app::solvers::{build_solver, SolverGeometry};
-use crate::config::{BasisKind, MassKind, MaterialModel, ReconstructionKind, Scenario, StrainKind};
+use crate::config::{
+    BasisKind, MassKind, MaterialModel, MomentumLimiter, ReconstructionKind, Scenario, StrainKind,
+    StressFit,
+};
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
 use crate::linalg::assembly::SplineSpace;
@@ -95,7 +98,11 @@ pub fn build_simulation(
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                     })?
                     .with_adjoint(method.strain(parts.two_phase.is_some()) == StrainKind::Adjoint)
-                    .with_conservative_degree(method.conservative_degree(1));
+                    .with_conservative_degree(method.conservative_degree(1))
+                    .with_momentum_limiter(
+                        method.momentum_limiter() == MomentumLimiter::KineticEnergy,
+                    )
+                    .with_conservative_stress(method.stress_fit() == StressFit::Conservative);
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

@@ -448,6 +448,7 @@ fn remedies_over_ranks(
         local.order_reduced_fits,
         local.density_limited_fits,
         local.strain_fallbacks,
+        local.momentum_limited_fits,
     ];
     // Counts are exact in f64 below 2^53.
     let total = exchange.sum_over_ranks(&counts.map(|c| c as f64))?;
@@ -458,6 +459,7 @@ fn remedies_over_ranks(
         order_reduced_fits: count(2),
         density_limited_fits: count(3),
         strain_fallbacks: count(4),
+        momentum_limited_fits: count(5),
     })
 }
 

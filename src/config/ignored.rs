@@ -133,6 +133,8 @@ impl Scenario {
                     "method.degenerate_cells",
                     "method.cell_totals",
                     "method.conservative_degree",
+                    "method.momentum_limiter",
+                    "method.stress_fit",
                 ],
                 method.reconstruction != ReconstructionKind::Tls,
                 only_tls,

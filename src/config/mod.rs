@@ -159,6 +159,39 @@ end = 1.9e-6
     }
 
     #[test]
+    fn the_energy_consistent_tls_keys_are_1d_only_and_checked() {
+        let with = |text: &str, sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            from_str(text, "bar", &sets).and_then(|s| s.validate().map(|()| s))
+        };
+        let keys = [
+            ("method.stress_fit", "conservative"),
+            ("method.momentum_limiter", "kinetic_energy"),
+        ];
+        // Defaults: the published fit, no limiter.
+        let tls = with(BAR, &["method.reconstruction=tls"]).unwrap();
+        assert_eq!(tls.method.stress_fit(), StressFit::Full);
+        assert_eq!(tls.method.momentum_limiter(), MomentumLimiter::None);
+        for (key, value) in keys {
+            let set = format!("{key}={value}");
+            assert!(with(BAR, &["method.reconstruction=tls", &set]).is_ok());
+            // 2D / 3D (two-phase: tests/consolidation.rs).
+            let sets = [
+                "method.reconstruction=tls",
+                "problem.dim=2",
+                "particles.per_cell=4",
+                &set,
+            ];
+            let err = with(BAR, &sets).unwrap_err();
+            assert!(err.to_string().contains(key), "{sets:?}: {err}");
+            assert!(err.is_input_error());
+            let bad = format!("{key}=sideways");
+            let err = with(BAR, &["method.reconstruction=tls", &bad]).unwrap_err();
+            assert!(err.to_string().contains(key), "{err}");
+        }
+    }
+
+    #[test]
     fn the_conservative_degree_defaults_by_dimension_and_is_checked() {
         let with = |sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

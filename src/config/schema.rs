@@ -467,6 +467,38 @@ pub struct MethodConfig {
     /// Default: see [`MethodConfig::conservative_degree`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub conservative_degree: Option<usize>,
+    /// Limiter of the TLS momentum fits (1D). Default: see
+    /// [`MethodConfig::momentum_limiter`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub momentum_limiter: Option<MomentumLimiter>,
+    /// The TLS stress fit (1D). Default: see [`MethodConfig::stress_fit`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stress_fit: Option<StressFit>,
+}
+
+/// `method.stress_fit`: how TLS fits the particle stresses in a cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StressFit {
+    /// Least squares on all three Taylor functions (the published method).
+    Full,
+    /// Conservative like density and momentum: the fitted stress integrates to the cell's
+    /// share of `sum_p V_p sigma_p`. With `method.strain = "adjoint"` every particle's fit
+    /// weight is then its volume, and the step conserves the physical energy.
+    Conservative,
+}
+
+/// `method.momentum_limiter`: whether a TLS momentum fit may carry more kinetic energy than
+/// its particles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MomentumLimiter {
+    /// The fit as solved (the published method).
+    None,
+    /// Blend the fit towards the cell's mean velocity times the fitted density until the
+    /// reconstructed velocity carries no more kinetic energy than the cell's particles
+    /// (momentum kept): the mapping to the grid then never adds kinetic energy.
+    KineticEnergy,
 }
 
 /// `method.cell_totals`: how the conserved totals `c_e` (mass, momentum) of the
@@ -557,6 +589,8 @@ impl Default for MethodConfig {
             degenerate_cells: DegenerateRemedy::default(),
             strain: None,
             conservative_degree: None,
+            momentum_limiter: None,
+            stress_fit: None,
         }
     }
 }
@@ -578,6 +612,16 @@ impl MethodConfig {
             ReconstructionKind::Mls | ReconstructionKind::Imls if !two_phase => StrainKind::Adjoint,
             _ => StrainKind::Gradient,
         })
+    }
+
+    /// `method.stress_fit` if given, else a full fit (the published TLS).
+    pub fn stress_fit(&self) -> StressFit {
+        self.stress_fit.unwrap_or(StressFit::Full)
+    }
+
+    /// `method.momentum_limiter` if given, else none (the published TLS fits).
+    pub fn momentum_limiter(&self) -> MomentumLimiter {
+        self.momentum_limiter.unwrap_or(MomentumLimiter::None)
     }
 
     /// `method.node_integrals` if given, else particle quadrature for the direct mapping

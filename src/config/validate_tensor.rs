@@ -248,6 +248,20 @@ impl Scenario {
         if self.method.strain == Some(StrainKind::Adjoint) {
             return one_d_only("method.strain", "\"adjoint\"", "the adjoint strain");
         }
+        if self.method.momentum_limiter == Some(MomentumLimiter::KineticEnergy) {
+            return one_d_only(
+                "method.momentum_limiter",
+                "\"kinetic_energy\"",
+                "the kinetic-energy limiter",
+            );
+        }
+        if self.method.stress_fit == Some(StressFit::Conservative) {
+            return one_d_only(
+                "method.stress_fit",
+                "\"conservative\"",
+                "the conservative stress fit",
+            );
+        }
         if self.problem.reference == ReferenceKind::Ulfem {
             return one_d_only("problem.reference", "\"ulfem\"", "the ULFEM reference");
         }

@@ -89,6 +89,15 @@ pub struct RemedyCounts {
     /// Particles whose adjoint strain (MLS / IMLS, `method.strain = "adjoint"`) had too
     /// small a fit volume and used the basis gradient instead.
     pub strain_fallbacks: u64,
+    /// Momentum fits blended towards the cell's mean velocity to carry no more kinetic
+    /// energy than their particles (`method.momentum_limiter = "kinetic_energy"`; not
+    /// written when zero).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub momentum_limited_fits: u64,
+}
+
+fn is_zero(count: &u64) -> bool {
+    *count == 0
 }
 
 impl RemedyCounts {
@@ -118,6 +127,7 @@ impl std::ops::AddAssign for RemedyCounts {
         self.virtual_point_fits += other.virtual_point_fits;
         self.order_reduced_fits += other.order_reduced_fits;
         self.density_limited_fits += other.density_limited_fits;
+        self.momentum_limited_fits += other.momentum_limited_fits;
         self.strain_fallbacks += other.strain_fallbacks;
     }
 }

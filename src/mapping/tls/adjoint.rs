@@ -64,6 +64,9 @@ pub(super) struct AdjointScratch {
     strain_pullbacks: Vec<[Pullback; 2]>,
     momentum_loads: Vec<[[f64; 3]; 1]>,
     momentum_pullbacks: Vec<[Pullback; 1]>,
+    /// Kinetic-energy limiter: per cell, `(1 - theta) A_c . rho_hat_c / rho_1`, the
+    /// derivative of the blended part's work by the cell's mean momentum density.
+    mean_velocity_loads: Vec<f64>,
 }
 
 #[inline]
@@ -243,14 +246,30 @@ impl TlsMapping {
                     }
                 });
             });
+        let conservative = self.conservative_stress;
+        let context = FitContext {
+            conservative_terms: 3,
+            ..self.context()
+        };
         pull_back_field(
-            &self.context(),
+            &context,
             &self.stress,
-            false,
+            conservative,
             &mut scratch.strain_loads,
             &mut scratch.strain_pullbacks,
         );
         let pullbacks = &scratch.strain_pullbacks;
+        // A conservative stress fit: `d a_1 / d t_c = 1 / |e_c|` with the total
+        // `t_c = sum_p s_pc V_p sigma_p`, for the power and the volume load.
+        let per_total = |c: usize, load: usize| {
+            if conservative && domains.is_active(c) {
+                pullbacks[c][load].fixed_mean / domains.length(c)
+            } else {
+                0.0
+            }
+        };
+        let by_domains = self.totals == CellTotals::Domains;
+        let mesh = &self.grid;
         let Particles {
             x, cell, volume, ..
         } = particles;
@@ -266,7 +285,26 @@ impl TlsMapping {
                     let c = cell[p];
                     let psi = taylor[c].psi(x[p]);
                     let [work, fit_volume] = &pullbacks[c];
-                    let fitted = dot(&fit_volume.rhs, &psi);
+                    let [through_totals, volume_through_totals] = if conservative {
+                        let mut shares = [0.0; 3];
+                        if by_domains {
+                            add_shares(&mut shares, mesh, c, x[p], volume[p], volume[p]);
+                        } else {
+                            shares[1] = volume[p];
+                        }
+                        [0, 1].map(|load| {
+                            let left = if c > 0 { per_total(c - 1, load) } else { 0.0 };
+                            let right = if c + 1 < cells {
+                                per_total(c + 1, load)
+                            } else {
+                                0.0
+                            };
+                            shares[0] * left + shares[1] * per_total(c, load) + shares[2] * right
+                        })
+                    } else {
+                        [0.0; 2]
+                    };
+                    let fitted = dot(&fit_volume.rhs, &psi) + volume_through_totals;
                     // NaN falls back too.
                     let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
                         fitted
@@ -274,7 +312,7 @@ impl TlsMapping {
                         fallbacks += 1;
                         volume[p]
                     };
-                    *deps = dt * dot(&work.rhs, &psi) / weight;
+                    *deps = dt * (dot(&work.rhs, &psi) + through_totals) / weight;
                 }
                 fallbacks
             })
@@ -311,6 +349,31 @@ impl TlsMapping {
                     }
                 });
             });
+        // With the kinetic-energy limiter the cell's coefficients are
+        // `theta alpha_c + (1 - theta) (a_1 / rho_1) rho_hat_c`: the fit's part takes the
+        // load scaled by `theta`, the blended part depends on the mean `a_1` only.
+        scratch.mean_velocity_loads.clear();
+        scratch.mean_velocity_loads.resize(cells, 0.0);
+        if let Some(theta) = &self.momentum_theta {
+            let density = &self.density.coefficients;
+            scratch
+                .momentum_loads
+                .par_iter_mut()
+                .zip(scratch.mean_velocity_loads.par_iter_mut())
+                .with_min_len(CELLS_PER_TASK)
+                .enumerate()
+                .filter(|(cell, _)| theta[*cell] < 1.0)
+                .for_each(|(cell, ([load], mean_load))| {
+                    // A cell without mass has no momentum: no blended part.
+                    if density[cell][0] > 0.0 {
+                        *mean_load =
+                            (1.0 - theta[cell]) * dot(load, &density[cell]) / density[cell][0];
+                    }
+                    for l in load.iter_mut() {
+                        *l *= theta[cell];
+                    }
+                });
+        }
         pull_back_field(
             &self.context(),
             &self.momentum,
@@ -319,10 +382,10 @@ impl TlsMapping {
             &mut scratch.momentum_pullbacks,
         );
         // `d a_1 / d t_c = 1 / |e_c|`.
-        let pullbacks = &scratch.momentum_pullbacks;
+        let (pullbacks, mean_loads) = (&scratch.momentum_pullbacks, &scratch.mean_velocity_loads);
         let per_total = |c: usize| {
             if domains.is_active(c) {
-                pullbacks[c][0].fixed_mean / domains.length(c)
+                (pullbacks[c][0].fixed_mean + mean_loads[c]) / domains.length(c)
             } else {
                 0.0
             }

@@ -26,6 +26,12 @@ pub(super) struct CellSums {
     pub(super) mass_shares: [f64; 3],
     /// Momentum of the cell's particles, split like the mass.
     pub(super) momentum_shares: [f64; 3],
+    /// Twice the kinetic energy `m_p v_p^2` of the cell's particles, split like the mass
+    /// (only with `method.momentum_limiter = "kinetic_energy"`).
+    pub(super) energy_shares: [f64; 3],
+    /// `V_p sigma_p` of the cell's particles, split like the mass (only with
+    /// `method.stress_fit = "conservative"`).
+    pub(super) stress_shares: [f64; 3],
 }
 
 /// State of a cell's fit of one field.
@@ -217,6 +223,72 @@ pub(super) fn limit_density(
     a[1] *= theta;
     a[2] *= theta;
     1
+}
+
+/// Kinetic-energy limiter of a conservative momentum fit (`method.momentum_limiter =
+/// "kinetic_energy"`, docs/reconstruction.md "Kinetic-energy limiter"): replace the
+/// momentum fit `m` of the cell `[lo, hi]` by
+///
+/// ```text
+/// m_theta = theta m + (1 - theta) v_bar rho,   v_bar = m_1 / rho_1 (the cell's mean velocity)
+/// ```
+///
+/// with the largest `theta` in `[0, 1]` for which the kinetic energy of the reconstructed
+/// velocity `u = m_theta / rho` at the Gauss points stays within that of the cell's
+/// particles, `int rho u^2 <= energy_total = sum_p s_pc m_p v_p^2`. Both terms have the
+/// cell's momentum as their integral, so `m_theta` conserves it for any `theta`, and
+/// `int rho u^2 = M v_bar^2 + theta^2 int (m - v_bar rho)^2 / rho` (`M` the cell mass)
+/// gives `theta` in closed form. With non-negative basis functions the mapped grid
+/// velocities then carry no more kinetic energy than the particles (Jensen's inequality
+/// at the Gauss points, lumped or consistent mass), as in plain MPM; this needs
+/// `rho_hat >= 0` at the Gauss points, which the density limiter gives where the cell has
+/// mass (the mapping clears the density fit of a cell without mass when the limiter is
+/// on). A density that is not positive at a Gauss point where the fit carries momentum
+/// gives `theta = 0`; a cell without mass gets no momentum (`theta = 0`). Returns `theta`
+/// (1: the fit is kept).
+#[inline]
+pub(super) fn limit_momentum(
+    taylor: &TaylorCell,
+    points: &GaussPoints,
+    lo: f64,
+    hi: f64,
+    density: &[f64; 3],
+    energy_total: f64,
+    momentum: &mut [f64; 3],
+) -> f64 {
+    if density[0] <= 0.0 {
+        // No mass in the cell (an empty cell inside the material extent): no momentum
+        // either (its total is 0, the slopes came from virtual points).
+        *momentum = [0.0; 3];
+        return 0.0;
+    }
+    let mean_velocity = momentum[0] / density[0];
+    // int (m - v_bar rho)^2 / rho: the energy the fit adds to the mean motion.
+    let mut excess = 0.0;
+    let mut unbounded = false;
+    points.for_each(lo, hi, |x, w| {
+        let rho = taylor.eval(density, x);
+        let deviation = taylor.eval(momentum, x) - mean_velocity * rho;
+        if rho > 0.0 {
+            excess += w * deviation * deviation / rho;
+        } else if deviation != 0.0 {
+            unbounded = true;
+        }
+    });
+    let allowed = energy_total - (hi - lo) * momentum[0] * mean_velocity;
+    let theta = if unbounded {
+        0.0
+    } else if excess <= allowed {
+        return 1.0;
+    } else if allowed > 0.0 {
+        (allowed / excess).sqrt()
+    } else {
+        0.0
+    };
+    for j in 1..3 {
+        momentum[j] = theta * momentum[j] + (1.0 - theta) * mean_velocity * density[j];
+    }
+    theta
 }
 
 /// The cell's conserved total from its own and its neighbours' shares.

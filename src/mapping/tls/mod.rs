@@ -33,6 +33,12 @@
 //! makes `rho_hat >= 0` at every Gauss point, so the lumped masses are non-negative and
 //! `M^C` is positive semi-definite.
 //!
+//! **Kinetic-energy limiter** (`method.momentum_limiter = "kinetic_energy"`,
+//! [`fit::limit_momentum`]): a momentum fit whose velocity `(rho v)_hat / rho_hat` carries
+//! more kinetic energy than the cell's particles is blended towards the cell's mean
+//! velocity times `rho_hat` (momentum kept), so the mapping to the grid never adds kinetic
+//! energy, as plain MPM's does not.
+//!
 //! **Adjoint strain and acceleration** (`method.strain = "adjoint"`, [`adjoint`]): the
 //! transposes of the linear maps particle stress → internal force and particle velocity →
 //! momentum replace the basis gradient and values at the particles in the particle update.
@@ -44,7 +50,7 @@ use crate::grid::{Basis, Grid};
 use crate::numerics::gauss::GaussRule;
 use crate::numerics::taylor::{add_rhs, FitKind, TaylorCell};
 use crate::particles::{CellBins, Particles};
-use fit::{cell_total, limit_density, CellSums, FieldFit, FitContext, FitState};
+use fit::{cell_total, limit_density, limit_momentum, CellSums, FieldFit, FitContext, FitState};
 use rayon::prelude::*;
 
 /// Cells per rayon task in the batched passes.
@@ -71,6 +77,13 @@ pub struct TlsMapping {
     /// `method.strain = "adjoint"`: the strain and particle acceleration adjoint to the
     /// mapping's internal force and momentum ([`adjoint`]).
     adjoint: Option<adjoint::AdjointScratch>,
+    /// `method.momentum_limiter = "kinetic_energy"`: per cell, the `theta` of the last
+    /// momentum fit ([`fit::limit_momentum`]; 1 where it was kept); `None`: no limiter.
+    momentum_theta: Option<Vec<f64>>,
+    /// `method.stress_fit = "conservative"`: the stress fit keeps the cell total
+    /// `sum_p s_pc V_p sigma_p` (so `int sigma_hat = sum_p V_p sigma_p`), like density and
+    /// momentum; else a full least-squares fit (the published method).
+    conservative_stress: bool,
 }
 
 impl TlsMapping {
@@ -103,6 +116,8 @@ impl TlsMapping {
             scatter: CellScatter::default(),
             conservative_terms: 3,
             adjoint: None,
+            momentum_theta: None,
+            conservative_stress: false,
         })
     }
 
@@ -121,6 +136,22 @@ impl TlsMapping {
     /// method).
     pub fn with_adjoint(mut self, adjoint: bool) -> Self {
         self.adjoint = adjoint.then(adjoint::AdjointScratch::default);
+        self
+    }
+
+    /// With `limit`, momentum fits are held to the kinetic energy of their particles
+    /// (`method.momentum_limiter = "kinetic_energy"`, [`fit::limit_momentum`]).
+    pub fn with_momentum_limiter(mut self, limit: bool) -> Self {
+        self.momentum_theta = limit.then(|| vec![1.0; self.grid.cells]);
+        self
+    }
+
+    /// With `conservative`, the stress fit keeps the cell total `sum_p s_pc V_p sigma_p`
+    /// (`method.stress_fit = "conservative"`): the integral of the fitted stress is then
+    /// the particles' `sum_p V_p sigma_p`, and with the adjoint strain each particle's
+    /// weight `V~_p` is its volume, so the step conserves the physical energy.
+    pub fn with_conservative_stress(mut self, conservative: bool) -> Self {
+        self.conservative_stress = conservative;
         self
     }
 
@@ -163,6 +194,7 @@ impl Mapping for TlsMapping {
         grid: &mut GridFields,
     ) {
         let by_domains = self.totals == CellTotals::Domains;
+        let conservative_stress = self.conservative_stress;
         self.domains
             .update(&self.grid, particles, bins, !by_domains);
         let (mesh, domains) = (&self.grid, &self.domains);
@@ -195,8 +227,20 @@ impl Mapping for TlsMapping {
                     add_rhs(&mut local.density_rhs, &psi, density[p]);
                     if by_domains {
                         add_shares(&mut local.mass_shares, mesh, cell, x[p], volume[p], mass[p]);
+                        if conservative_stress {
+                            let force = volume[p] * stress[p];
+                            add_shares(
+                                &mut local.stress_shares,
+                                mesh,
+                                cell,
+                                x[p],
+                                volume[p],
+                                force,
+                            );
+                        }
                     } else {
                         local.mass_shares[1] += mass[p];
+                        local.stress_shares[1] += volume[p] * stress[p];
                     }
                 }
                 *taylor = basis;
@@ -211,9 +255,14 @@ impl Mapping for TlsMapping {
             sums,
             conservative_terms: self.conservative_terms,
         };
+        let stress_context = FitContext {
+            conservative_terms: 3,
+            ..context
+        };
         let density_kind = |cell: usize| {
             FitKind::Conservative(cell_total(sums, cell, |s| s.mass_shares) / domains.length(cell))
         };
+        let stress_kind = |cell: usize| stress_kind(conservative_stress, sums, domains, cell);
         let limited: u64 = (
             self.stress.coefficients.par_iter_mut(),
             self.stress.state.par_iter_mut(),
@@ -227,8 +276,12 @@ impl Mapping for TlsMapping {
                 |(cell, (stress_a, stress_state, density_a, density_state))| {
                     let active = domains.is_active(cell);
                     let s = &sums[cell];
-                    (*stress_state, *stress_a) =
-                        context.plain_fit(active, &s.normal, &s.stress_rhs, FitKind::Full);
+                    (*stress_state, *stress_a) = stress_context.plain_fit(
+                        active,
+                        &s.normal,
+                        &s.stress_rhs,
+                        stress_kind(cell),
+                    );
                     (*density_state, *density_a) =
                         context.plain_fit(active, &s.normal, &s.density_rhs, density_kind(cell));
                     if *density_state == FitState::Fitted {
@@ -250,10 +303,10 @@ impl Mapping for TlsMapping {
             density_limited_fits: limited,
             ..RemedyCounts::default()
         };
-        counts += context.repair_all(
+        counts += stress_context.repair_all(
             &mut self.stress,
             |cell| sums[cell].stress_rhs,
-            |_| FitKind::Full,
+            stress_kind,
             |_, _| 0,
         );
         counts += context.repair_all(
@@ -263,6 +316,13 @@ impl Mapping for TlsMapping {
             |cell, a| limit_density(&taylor[cell], points, domains.lo[cell], domains.hi[cell], a),
         );
         self.remedies += counts;
+        if self.momentum_theta.is_some() {
+            // The kinetic-energy limiter needs `rho_hat >= 0`: a cell without mass (inside
+            // the material extent, its slopes from virtual points) gets no density.
+            for a in self.density.coefficients.iter_mut().filter(|a| a[0] <= 0.0) {
+                *a = [0.0; 3];
+            }
+        }
         // Pass 4: Gauss quadrature.
         let (stress, density) = (&self.stress.coefficients, &self.density.coefficients);
         integrate_mass_and_force(
@@ -284,6 +344,7 @@ impl Mapping for TlsMapping {
         grid: &mut GridFields,
     ) {
         let by_domains = self.totals == CellTotals::Domains;
+        let limited = self.momentum_theta.is_some();
         let (mesh, domains, taylor) = (&self.grid, &self.domains, &self.taylor);
         let (x, mass, volume, density, v) = (
             &particles.x,
@@ -300,23 +361,30 @@ impl Mapping for TlsMapping {
             .for_each(|(cell, sums)| {
                 sums.momentum_rhs = [0.0; 3];
                 sums.momentum_shares = [0.0; 3];
+                sums.energy_shares = [0.0; 3];
                 if !domains.is_active(cell) {
                     return;
                 }
                 let basis = taylor[cell];
-                let (mut rhs, mut shares) = ([0.0; 3], [0.0; 3]);
+                let (mut rhs, mut shares, mut energy) = ([0.0; 3], [0.0; 3], [0.0; 3]);
                 for p in bins.range(cell) {
                     let psi = basis.psi(x[p]);
                     let momentum = mass[p] * v[p];
                     add_rhs(&mut rhs, &psi, density[p] * v[p]);
                     if by_domains {
                         add_shares(&mut shares, mesh, cell, x[p], volume[p], momentum);
+                        if limited {
+                            let twice_energy = momentum * v[p];
+                            add_shares(&mut energy, mesh, cell, x[p], volume[p], twice_energy);
+                        }
                     } else {
                         shares[1] += momentum;
+                        energy[1] += momentum * v[p];
                     }
                 }
                 sums.momentum_rhs = rhs;
                 sums.momentum_shares = shares;
+                sums.energy_shares = energy;
             });
         // Pass 2: plain fits; pass 3: repairs.
         let sums = &self.sums;
@@ -353,6 +421,38 @@ impl Mapping for TlsMapping {
             kind,
             |_, _| 0,
         );
+        // Kinetic-energy limiter, after the repairs (their virtual points come from the
+        // neighbours' unlimited fits, as the adjoint assumes).
+        if let Some(theta) = self.momentum_theta.as_mut() {
+            let (points, density) = (&self.points, &self.density.coefficients);
+            let limited: u64 = (
+                theta.par_iter_mut(),
+                self.momentum.coefficients.par_iter_mut(),
+            )
+                .into_par_iter()
+                .with_min_len(CELLS_PER_TASK)
+                .enumerate()
+                .map(|(cell, (theta, momentum))| {
+                    *theta = 1.0;
+                    if !domains.is_active(cell) {
+                        return 0;
+                    }
+                    let energy = cell_total(sums, cell, |s| s.energy_shares);
+                    let (lo, hi) = (domains.lo[cell], domains.hi[cell]);
+                    *theta = limit_momentum(
+                        &taylor[cell],
+                        points,
+                        lo,
+                        hi,
+                        &density[cell],
+                        energy,
+                        momentum,
+                    );
+                    u64::from(*theta < 1.0)
+                })
+                .sum();
+            self.remedies.momentum_limited_fits += limited;
+        }
         // Pass 4: Gauss quadrature.
         let momentum = &self.momentum.coefficients;
         integrate_momentum(
@@ -396,6 +496,21 @@ impl Mapping for TlsMapping {
 
     fn remedies(&self) -> RemedyCounts {
         self.remedies
+    }
+}
+
+/// The stress fit of `cell`: conservative with the mean `sum_p s_pc V_p sigma_p / |e_c|`
+/// (`method.stress_fit = "conservative"`), else full.
+fn stress_kind(
+    conservative: bool,
+    sums: &[CellSums],
+    domains: &CellDomains,
+    cell: usize,
+) -> FitKind {
+    if conservative {
+        FitKind::Conservative(cell_total(sums, cell, |s| s.stress_shares) / domains.length(cell))
+    } else {
+        FitKind::Full
     }
 }
 

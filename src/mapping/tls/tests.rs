@@ -80,10 +80,11 @@ fn check_conservation<B: Basis>(
             DegenerateRemedy::VirtualPoints,
             DegenerateRemedy::OrderReduction,
         ] {
-            for degree in 0..=2 {
+            for (degree, limiter) in (0..=2).flat_map(|d| [(d, false), (d, true)]) {
                 let mut mapping = TlsMapping::new(grid, 4, remedy, totals_rule)
                     .unwrap()
-                    .with_conservative_degree(degree);
+                    .with_conservative_degree(degree)
+                    .with_momentum_limiter(limiter);
                 let ([m_grid, m_matrix, p_grid], [m, p, scale]) =
                     totals(basis, &mut mapping, particles, bins);
                 // The conservative fits stay within their degree.
@@ -262,7 +263,9 @@ proptest! {
     /// The adjoint strain is work-conjugate to the TLS internal force and the adjoint
     /// acceleration to the TLS momentum, to round-off, for random layouts with empty,
     /// one-particle and full cells, linear and quadratic B-spline bases, both remedies,
-    /// both cell-total rules and conservative fits of degree 0, 1 or 2.
+    /// both cell-total rules, conservative fits of degree 0, 1 or 2, the full or the
+    /// conservative stress fit, and with or without the kinetic-energy limiter (whose
+    /// `theta` the adjoint takes as fixed).
     #[test]
     fn adjoint_strain_and_acceleration_are_conjugate(
         counts in prop::collection::vec(0usize..5, 8),
@@ -270,16 +273,27 @@ proptest! {
         velocities in prop::collection::vec(-1.0f64..1.0, 12),
         quadratic in any::<bool>(),
         degree in 0usize..=2,
+        conservative_stress in any::<bool>(),
+        limiter in any::<bool>(),
+        particle_velocities in prop::collection::vec(-1.0f64..1.0, 40),
     ) {
         let grid = Grid::new(2.0, 8);
         let (mut particles, bins) = layout(&grid, &counts, &jitter);
         prop_assume!(!particles.is_empty());
+        if limiter {
+            // Rough velocities, so that the kinetic-energy limiter acts.
+            for (p, v) in particles.v.iter_mut().enumerate() {
+                *v = particle_velocities[p % particle_velocities.len()];
+            }
+        }
         for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
             for remedy in [DegenerateRemedy::VirtualPoints, DegenerateRemedy::OrderReduction] {
                 let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
                     .unwrap()
                     .with_adjoint(true)
-                    .with_conservative_degree(degree);
+                    .with_conservative_degree(degree)
+                    .with_conservative_stress(conservative_stress)
+                    .with_momentum_limiter(limiter);
                 let (strain, momentum) = if quadratic {
                     let basis = BSplineBasis::new(grid, 2).unwrap();
                     let v = &velocities[..basis.num_dofs()];
@@ -297,7 +311,7 @@ proptest! {
 }
 
 /// A uniform velocity gradient gives every particle that gradient as its adjoint strain
-/// rate (but the few normalised by `V_p`), and a uniform grid acceleration every particle
+/// rate (but the few normalised by `V_p`; none with the conservative stress fit), and a uniform grid acceleration every particle
 /// that acceleration (both remedies, both totals rules, cells of 1 to 4 particles and an
 /// empty one).
 #[test]
@@ -310,14 +324,18 @@ fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
         .map(|i| gradient * grid.cell_left(i))
         .collect();
     let uniform = vec![acceleration; basis.num_dofs()];
-    for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
+    for (totals_rule, conservative_stress) in [CellTotals::Centres, CellTotals::Domains]
+        .into_iter()
+        .flat_map(|t| [(t, false), (t, true)])
+    {
         for remedy in [
             DegenerateRemedy::VirtualPoints,
             DegenerateRemedy::OrderReduction,
         ] {
             let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
                 .unwrap()
-                .with_adjoint(true);
+                .with_adjoint(true)
+                .with_conservative_stress(conservative_stress);
             let mut fields = GridFields::new(basis.num_dofs());
             mapping.map_mass_and_internal_force(&basis, &particles, &bins, &mut fields);
             mapping.map_momentum(&basis, &particles, &bins, &mut fields);
@@ -329,8 +347,13 @@ fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
                 inexact += usize::from((deps[p] - 0.1 * gradient).abs() > 1e-14);
                 assert!((a[p] - acceleration).abs() < 1e-13, "{p}: {}", a[p]);
             }
-            // Only a particle normalised by V_p (a fallback) may miss the gradient.
+            // Only a particle normalised by V_p (a fallback) may miss the gradient; with
+            // the conservative stress fit every particle's fit weight is its volume.
             let remedies = mapping.remedies();
+            if conservative_stress {
+                assert_eq!(inexact, 0, "{totals_rule:?} {remedy:?}");
+                assert_eq!(remedies.strain_fallbacks, 0);
+            }
             assert!(
                 inexact as u64 <= remedies.strain_fallbacks,
                 "{inexact}, {remedies:?}"
@@ -342,4 +365,111 @@ fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
             assert!(remedies.degenerate_fits > 0);
         }
     }
+}
+
+/// `sum_i p_i^2 / m_i` of the lumped grid and `sum_p m_p v_p^2` of the particles.
+fn twice_kinetic_energies<B: Basis>(
+    basis: &B,
+    mapping: &mut TlsMapping,
+    particles: &Particles,
+    bins: &CellBins,
+) -> (f64, f64) {
+    let mut fields = GridFields::new(basis.num_dofs());
+    mapping.map_mass_and_internal_force(basis, particles, bins, &mut fields);
+    mapping.map_momentum(basis, particles, bins, &mut fields);
+    let grid = (0..basis.num_dofs())
+        .filter(|&i| fields.mass[i] > 0.0)
+        .map(|i| fields.momentum[i] * fields.momentum[i] / fields.mass[i])
+        .sum();
+    let particle = (0..particles.len())
+        .map(|p| particles.mass[p] * particles.v[p] * particles.v[p])
+        .sum();
+    (grid, particle)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// With the kinetic-energy limiter the lumped grid never carries more kinetic energy
+    /// than the particles (random layouts and velocities, linear and quadratic B-spline
+    /// bases, both remedies and totals rules, conservative degrees 0..2), and momentum is
+    /// still conserved to round-off.
+    #[test]
+    fn the_limited_momentum_mapping_adds_no_kinetic_energy(
+        counts in prop::collection::vec(0usize..5, 8),
+        jitter in prop::collection::vec(0.0f64..1.0, 40),
+        particle_velocities in prop::collection::vec(-1.0f64..1.0, 40),
+        quadratic in any::<bool>(),
+        degree in 0usize..=2,
+    ) {
+        let grid = Grid::new(2.0, 8);
+        let (mut particles, bins) = layout(&grid, &counts, &jitter);
+        prop_assume!(!particles.is_empty());
+        for (p, v) in particles.v.iter_mut().enumerate() {
+            *v = particle_velocities[p % particle_velocities.len()];
+        }
+        for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
+            for remedy in [DegenerateRemedy::VirtualPoints, DegenerateRemedy::OrderReduction] {
+                let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
+                    .unwrap()
+                    .with_conservative_degree(degree)
+                    .with_momentum_limiter(true);
+                let (grid_energy, particle_energy) = if quadratic {
+                    let basis = BSplineBasis::new(grid, 2).unwrap();
+                    twice_kinetic_energies(&basis, &mut mapping, &particles, &bins)
+                } else {
+                    twice_kinetic_energies(&LinearBasis::new(grid), &mut mapping, &particles, &bins)
+                };
+                prop_assert!(
+                    grid_energy <= particle_energy * (1.0 + 1e-12),
+                    "{totals_rule:?} {remedy:?}: {grid_energy} > {particle_energy}"
+                );
+            }
+        }
+        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins)?;
+    }
+}
+
+/// Without the limiter the TLS momentum fit of a rough velocity field can carry more
+/// kinetic energy to the grid than the particles have (what the limiter is for); with it,
+/// no more.
+#[test]
+fn unlimited_momentum_fits_can_add_kinetic_energy() {
+    let grid = Grid::new(2.0, 8);
+    let basis = LinearBasis::new(grid);
+    let mut gained = 0;
+    for seed in 0..20u32 {
+        let counts: Vec<usize> = (0..8).map(|e| 1 + ((seed as usize + 3 * e) % 4)).collect();
+        let jitter: Vec<f64> = (0..40)
+            .map(|k| ((k as f64 + 1.0) * (seed as f64 + 1.7) * 0.618).fract())
+            .collect();
+        let (mut particles, bins) = layout(&grid, &counts, &jitter);
+        for (p, v) in particles.v.iter_mut().enumerate() {
+            *v = if (p + seed as usize).is_multiple_of(3) {
+                1.0
+            } else {
+                -0.5
+            };
+        }
+        let mapping = TlsMapping::new(
+            grid,
+            3,
+            DegenerateRemedy::VirtualPoints,
+            CellTotals::Domains,
+        )
+        .unwrap();
+        let (plain, particle) =
+            twice_kinetic_energies(&basis, &mut mapping.clone(), &particles, &bins);
+        let (limited, _) = twice_kinetic_energies(
+            &basis,
+            &mut mapping.with_momentum_limiter(true),
+            &particles,
+            &bins,
+        );
+        gained += usize::from(plain > particle * (1.0 + 1e-9));
+        assert!(
+            limited <= particle * (1.0 + 1e-12),
+            "{seed}: {limited} > {particle}"
+        );
+    }
+    assert!(gained > 0, "no layout gained energy without the limiter");
 }
