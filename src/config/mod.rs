@@ -175,7 +175,7 @@ end = 1.9e-6
         for (key, value) in keys {
             let set = format!("{key}={value}");
             assert!(with(BAR, &["method.reconstruction=tls", &set]).is_ok());
-            // 2D / 3D (two-phase: tests/consolidation.rs).
+            // Refused in 2D / 3D.
             let sets = [
                 "method.reconstruction=tls",
                 "problem.dim=2",

@@ -161,20 +161,6 @@ impl Scenario {
                 "the two-phase step is MUSL only",
             ));
         }
-        if two_phase && self.method.stress_fit == Some(StressFit::Conservative) {
-            return Err(Error::invalid(
-                "method.stress_fit",
-                "\"conservative\"",
-                "the two-phase step supports method.stress_fit = \"full\" only",
-            ));
-        }
-        if two_phase && self.method.momentum_limiter == Some(MomentumLimiter::KineticEnergy) {
-            return Err(Error::invalid(
-                "method.momentum_limiter",
-                "\"kinetic_energy\"",
-                "the two-phase step supports method.momentum_limiter = \"none\" only",
-            ));
-        }
         if self.method.strain == Some(StrainKind::Adjoint) {
             let reason = if two_phase {
                 Some("the two-phase step supports method.strain = \"gradient\" only")
