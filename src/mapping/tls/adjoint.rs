@@ -37,7 +37,7 @@
 
 use super::{add_shares, FieldFit, FitContext, FitState, TlsMapping, CELLS_PER_TASK};
 use crate::config::{CellTotals, DegenerateRemedy};
-use crate::grid::Basis;
+use crate::grid::{Basis, Grid};
 use crate::numerics::taylor::{solve, solve_reduced_from, FitKind, NormalMatrix};
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -72,6 +72,36 @@ pub(super) struct AdjointScratch {
 #[inline]
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The derivative, through the conserved cell totals, of the loads' work by the quantity of
+/// particle `p` (in cell `c`) whose amount is `q` (`V_p` for the stress, `m_p` for the
+/// momentum): its shares in the cells its domain overlaps (all in `c` with
+/// `cell_totals = "centres"`) times `per_total(cell)`, the work per unit of that cell's
+/// total.
+#[inline]
+fn through_totals(
+    by_domains: bool,
+    mesh: &Grid,
+    c: usize,
+    x: f64,
+    volume: f64,
+    q: f64,
+    per_total: impl Fn(usize) -> f64,
+) -> f64 {
+    let mut shares = [0.0; 3];
+    if by_domains {
+        add_shares(&mut shares, mesh, c, x, volume, q);
+    } else {
+        shares[1] = q;
+    }
+    let left = if c > 0 { per_total(c - 1) } else { 0.0 };
+    let right = if c + 1 < mesh.cells {
+        per_total(c + 1)
+    } else {
+        0.0
+    };
+    shares[0] * left + shares[1] * per_total(c) + shares[2] * right
 }
 
 /// How a cell's fit was solved: its normal matrix (with any virtual points), the Taylor
@@ -286,20 +316,10 @@ impl TlsMapping {
                     let psi = taylor[c].psi(x[p]);
                     let [work, fit_volume] = &pullbacks[c];
                     let [through_totals, volume_through_totals] = if conservative {
-                        let mut shares = [0.0; 3];
-                        if by_domains {
-                            add_shares(&mut shares, mesh, c, x[p], volume[p], volume[p]);
-                        } else {
-                            shares[1] = volume[p];
-                        }
                         [0, 1].map(|load| {
-                            let left = if c > 0 { per_total(c - 1, load) } else { 0.0 };
-                            let right = if c + 1 < cells {
-                                per_total(c + 1, load)
-                            } else {
-                                0.0
-                            };
-                            shares[0] * left + shares[1] * per_total(c, load) + shares[2] * right
+                            through_totals(by_domains, mesh, c, x[p], volume[p], volume[p], |e| {
+                                per_total(e, load)
+                            })
                         })
                     } else {
                         [0.0; 2]
@@ -408,16 +428,8 @@ impl TlsMapping {
                 for (k, a) in out.iter_mut().enumerate() {
                     let p = start + k;
                     let c = cell[p];
-                    let mut shares = [0.0; 3];
-                    if by_domains {
-                        add_shares(&mut shares, mesh, c, x[p], volume[p], mass[p]);
-                    } else {
-                        shares[1] = mass[p];
-                    }
-                    let left = if c > 0 { per_total(c - 1) } else { 0.0 };
-                    let right = if c + 1 < cells { per_total(c + 1) } else { 0.0 };
                     let through_totals =
-                        shares[0] * left + shares[1] * per_total(c) + shares[2] * right;
+                        through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], per_total);
                     let through_fit = dot(&pullbacks[c][0].rhs, &taylor[c].psi(x[p])) * density[p];
                     *a = (through_fit + through_totals) / mass[p];
                 }
