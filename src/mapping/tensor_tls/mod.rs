@@ -169,9 +169,6 @@ pub struct TensorTlsMapping<const D: usize> {
     /// Per axis, the moments of the Taylor factors against the basis on the boxes of the
     /// last mapping (`moments.rs`).
     moments: [AxisMoments; D],
-    /// `3^D` shares `[f64; 4]` per cell (`"domains"` only): what the cell's particles give
-    /// to the neighbour at offset `k` (base-3 digits `o_a + 1`).
-    shares: Vec<[f64; 4]>,
     /// Conserved totals per cell (mass, or the `D` components of a vector).
     cell_totals: Vec<[f64; 4]>,
     /// Stress coefficients, `stress_components` per cell.
@@ -221,7 +218,6 @@ impl<const D: usize> TensorTlsMapping<D> {
             hi: vec![[0.0; D]; cells],
             active: vec![false; cells],
             moments: std::array::from_fn(|_| AxisMoments::default()),
-            shares: Vec::new(),
             cell_totals: vec![[0.0; 4]; cells],
             stress: vec![[0.0; MAX_TERMS]; cells * stress_components::<D>().len()],
             density: vec![[0.0; MAX_TERMS]; cells],
@@ -397,71 +393,20 @@ impl<const D: usize> TensorTlsMapping<D> {
         cell_start: &[usize],
         quantity: impl Fn(usize) -> [f64; 4] + Sync,
     ) -> Result<()> {
-        let grid = self.grid;
         match self.totals {
             CellTotals::Centres => {
-                self.cell_totals
-                    .par_iter_mut()
-                    .with_min_len(CELLS_PER_TASK)
-                    .enumerate()
-                    .for_each(|(cell, total)| {
-                        *total = [0.0; 4];
-                        for p in cell_start[cell]..cell_start[cell + 1] {
-                            let q = quantity(p);
-                            for c in 0..4 {
-                                total[c] += q[c];
-                            }
-                        }
-                    });
+                totals::centre_totals(cell_start, quantity, &mut self.cell_totals);
             }
             CellTotals::Domains => {
-                let k3 = 3usize.pow(D as u32);
-                self.shares.resize(grid.num_cells() * k3, [0.0; 4]);
-                let mut shares = std::mem::take(&mut self.shares);
                 let half0 = Some(self.half_length0);
-                shares
-                    .par_chunks_mut(k3)
-                    .with_min_len(CELLS_PER_TASK)
-                    .enumerate()
-                    .for_each(|(cell, out)| {
-                        out.fill([0.0; 4]);
-                        let index = cell_axes(&grid, cell);
-                        for p in cell_start[cell]..cell_start[cell + 1] {
-                            let x = particles.position(p);
-                            let half = half_lengths(particles, &half0, p);
-                            split_shares(&grid, index, x, half, quantity(p), out);
-                        }
-                    });
-                let shares_ref = &shares;
-                self.cell_totals
-                    .par_iter_mut()
-                    .with_min_len(CELLS_PER_TASK)
-                    .enumerate()
-                    .for_each(|(cell, total)| {
-                        *total = [0.0; 4];
-                        let index = cell_axes(&grid, cell);
-                        // From the highest offset down: in 1D from the left neighbour, own,
-                        // from the right neighbour (the 1D order).
-                        for k in (0..k3).rev() {
-                            let mut source = [0usize; D];
-                            let mut inside = true;
-                            let mut rest = k;
-                            for a in 0..D {
-                                let o = (rest % 3) as isize - 1;
-                                rest /= 3;
-                                let s = index[a] as isize - o;
-                                inside &= s >= 0 && (s as usize) < grid.axes[a].cells;
-                                source[a] = s.max(0) as usize;
-                            }
-                            if inside {
-                                let share = shares_ref[grid.cell_index(source) * k3 + k];
-                                for c in 0..4 {
-                                    total[c] += share[c];
-                                }
-                            }
-                        }
-                    });
-                self.shares = shares;
+                totals::domain_totals(
+                    &self.grid,
+                    particles,
+                    cell_start,
+                    |p| half_lengths(particles, &half0, p),
+                    quantity,
+                    &mut self.cell_totals,
+                );
             }
         }
         match &self.slab {
@@ -663,7 +608,8 @@ mod cells;
 mod fits;
 mod integrate;
 mod moments;
-use cells::{cell_axes, dot, max_len, split_shares};
+mod totals;
+use cells::{cell_axes, dot, max_len};
 use moments::{AxisMoments, CellMoments};
 
 #[cfg(test)]
