@@ -49,6 +49,45 @@ impl<const D: usize> StencilRows<'_, D> {
         block: &[f64],
     ) {
         let side = 2 * self.reach + 1;
+        if D == 2 || D == 3 {
+            // The same additions, a contiguous run of `len[0]` slots at a time: along the
+            // row axis 0, `slot = j_0 + reach - i_0 + ...` grows with `j_0`.
+            let reach = self.reach;
+            let (l0, l1) = (len[0], len[1]);
+            let (l2, first2, stride2) = if D == 3 {
+                (len[2], first[2], strides[2])
+            } else {
+                (1, 0, 0)
+            };
+            let mut k = 0;
+            for i2 in 0..l2 {
+                let row2 = (first2 + i2) * stride2;
+                for j2 in 0..l2 {
+                    let slot2 = if D == 3 {
+                        (j2 + reach - i2) * side * side
+                    } else {
+                        0
+                    };
+                    for i1 in 0..l1 {
+                        let row1 = row2 + (first[1] + i1) * strides[1];
+                        for j1 in 0..l1 {
+                            let slot1 = slot2 + (j1 + reach - i1) * side;
+                            for i0 in 0..l0 {
+                                let row = row1 + (first[0] + i0) * strides[0];
+                                let at = (row - self.lo) * self.width + slot1 + reach - i0;
+                                for (target, &value) in
+                                    self.values[at..at + l0].iter_mut().zip(&block[k..k + l0])
+                                {
+                                    *target += value;
+                                }
+                                k += l0;
+                            }
+                        }
+                    }
+                }
+            }
+            return;
+        }
         let mut slot_scale = [1usize; D];
         for a in 1..D {
             slot_scale[a] = slot_scale[a - 1] * side;
@@ -243,8 +282,15 @@ impl<const D: usize> StencilAssembly<D> {
                         break;
                     }
                     let base = (offsets[k] + row - task.nodes.start) * width;
-                    for (v, &slot) in values.iter_mut().zip(entries) {
-                        *v += buffer[base + slot];
+                    if values.len() == width {
+                        // A row away from the boundary holds every slot, in slot order.
+                        for (v, &b) in values.iter_mut().zip(&buffer[base..base + width]) {
+                            *v += b;
+                        }
+                    } else {
+                        for (v, &slot) in values.iter_mut().zip(entries) {
+                            *v += buffer[base + slot];
+                        }
                     }
                 }
             });

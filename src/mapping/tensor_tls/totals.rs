@@ -71,7 +71,14 @@ pub(super) fn domain_totals<const D: usize>(
             let cell = layer * per_layer + offset;
             let index = cell_axes(grid, cell);
             for p in cell_start[cell]..cell_start[cell + 1] {
-                split_shares(grid, index, particles.position(p), half(p), quantity(p), out);
+                split_shares(
+                    grid,
+                    index,
+                    particles.position(p),
+                    half(p),
+                    quantity(p),
+                    out,
+                );
             }
         }
     };
