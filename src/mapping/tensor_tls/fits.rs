@@ -7,6 +7,7 @@
 // Index loops: the indices enter the formulas (terms, axes).
 #![allow(clippy::needless_range_loop)]
 
+use super::bins::CellBins;
 use super::cells::{box_volume, limit_density};
 use super::{stress_components, TensorTlsMapping, CELLS_PER_TASK, MAX_DEGREE};
 use crate::error::Result;
@@ -24,7 +25,7 @@ impl<const D: usize> TensorTlsMapping<D> {
     pub(super) fn fit_stress_and_density(
         &mut self,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
+        bins: &CellBins,
         body: Option<&[Vec<f64>; D]>,
     ) {
         let components = stress_components::<D>();
@@ -53,7 +54,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                     let mut stress_rhs = [[0.0; MAX_TERMS]; 6];
                     let mut density_rhs = [0.0; MAX_TERMS];
                     let mut body_rhs = [[0.0; MAX_TERMS]; D];
-                    for p in cell_start[cell]..cell_start[cell + 1] {
+                    for &p in bins.of(cell) {
                         let t = taylor.terms(particles.position(p));
                         normal.add(&t);
                         for (rhs, &(a, c)) in stress_rhs.iter_mut().zip(&components) {
@@ -103,10 +104,10 @@ impl<const D: usize> TensorTlsMapping<D> {
     pub(super) fn fit_vector(
         &mut self,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
+        bins: &CellBins,
         values: &[Vec<f64>; D],
     ) -> Result<()> {
-        self.update_totals(particles, cell_start, |p| {
+        self.update_totals(particles, bins, |p| {
             let mut q = [0.0; 4];
             for a in 0..D {
                 q[a] = particles.mass[p] * values[a][p];
@@ -128,7 +129,7 @@ impl<const D: usize> TensorTlsMapping<D> {
                 let taylor = TaylorBox::new(lo[cell], hi[cell]);
                 let mut normal = NormalMatrix::<D>::default();
                 let mut rhs = [[0.0; MAX_TERMS]; D];
-                for p in cell_start[cell]..cell_start[cell + 1] {
+                for &p in bins.of(cell) {
                     let t = taylor.terms(particles.position(p));
                     normal.add(&t);
                     for a in 0..D {

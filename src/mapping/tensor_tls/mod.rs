@@ -65,6 +65,10 @@ use std::sync::Arc;
 
 /// Cells per rayon task in the per-cell passes.
 const CELLS_PER_TASK: usize = 64;
+/// Layers of cells a particle may stray from its bin before the time stepper re-sorts the
+/// particle arrays: the fits read each cell's particles from the mapping's own index lists
+/// ([`bins`]), so the order of the arrays only sets the locality of those reads.
+pub const TLS_BIN_SLACK: usize = 1;
 /// Particles per rayon task in the velocity update.
 const PARTICLES_PER_TASK: usize = 2048;
 /// Highest total degree of the fits.
@@ -171,6 +175,8 @@ pub struct TensorTlsMapping<const D: usize> {
     moments: [AxisMoments; D],
     /// Conserved totals per cell (mass, or the `D` components of a vector).
     cell_totals: Vec<[f64; 4]>,
+    /// The particles of each cell, by index (rebuilt at every mass and force map).
+    bins: CellBins,
     /// Stress coefficients, `stress_components` per cell.
     stress: Vec<[f64; MAX_TERMS]>,
     density: Vec<[f64; MAX_TERMS]>,
@@ -219,6 +225,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             active: vec![false; cells],
             moments: std::array::from_fn(|_| AxisMoments::default()),
             cell_totals: vec![[0.0; 4]; cells],
+            bins: CellBins::default(),
             stress: vec![[0.0; MAX_TERMS]; cells * stress_components::<D>().len()],
             density: vec![[0.0; MAX_TERMS]; cells],
             vector: vec![[0.0; MAX_TERMS]; cells * D],
@@ -317,7 +324,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
+        bins: &CellBins,
     ) -> Result<()> {
         let n = particles.len();
         let this = &*self;
@@ -371,7 +378,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             .for_each(|(cell, (lo, hi, active))| {
                 let index = cell_axes(&grid, cell);
                 let mut ok = slab.is_none_or(|s| s.owns_cell(cell))
-                    && (!require_particles || cell_start[cell + 1] > cell_start[cell]);
+                    && (!require_particles || !bins.is_empty(cell));
                 for a in 0..D {
                     let g = &grid.axes[a];
                     let left = g.cell_left(index[a]);
@@ -390,19 +397,19 @@ impl<const D: usize> TensorTlsMapping<D> {
     fn update_totals(
         &mut self,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
+        bins: &CellBins,
         quantity: impl Fn(usize) -> [f64; 4] + Sync,
     ) -> Result<()> {
         match self.totals {
             CellTotals::Centres => {
-                totals::centre_totals(cell_start, quantity, &mut self.cell_totals);
+                totals::centre_totals(bins, quantity, &mut self.cell_totals);
             }
             CellTotals::Domains => {
                 let half0 = Some(self.half_length0);
                 totals::domain_totals(
                     &self.grid,
                     particles,
-                    cell_start,
+                    bins,
                     |p| half_lengths(particles, &half0, p),
                     quantity,
                     &mut self.cell_totals,
@@ -420,39 +427,32 @@ impl<const D: usize> TensorTlsMapping<D> {
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
         values: &[Vec<f64>; D],
         out: &mut [[f64; D]],
     ) -> Result<()> {
-        self.fit_vector(particles, cell_start, values)?;
+        let bins = self.current_bins(particles);
+        let fitted = self.fit_vector(particles, &bins, values);
+        self.bins = bins;
+        fitted?;
         with_fixed_support!(basis, N => self.integrate_vector::<B, N>(basis, out));
         Ok(())
     }
-}
 
-impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
-    fn name(&self) -> &'static str {
-        "tls"
-    }
-
-    fn particle_domains(&self) -> &Option<[f64; D]> {
-        &self.particle_domains
-    }
-
-    fn map_mass_and_force<B: Basis>(
+    /// [`TensorMapping::map_mass_and_force`] with the particles of each cell in `bins`.
+    fn map_mass_and_force_in_bins<B: Basis>(
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
+        bins: &CellBins,
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
     ) -> Result<()> {
-        self.update_boxes(basis, particles, cell_start)?;
+        self.update_boxes(basis, particles, bins)?;
         let per_particle = match body {
             TensorBody::PerParticle(b) => Some(b),
             TensorBody::Uniform(_) => None,
         };
-        self.update_totals(particles, cell_start, |p| {
+        self.update_totals(particles, bins, |p| {
             let mut q = [particles.mass[p], 0.0, 0.0, 0.0];
             if let Some(b) = per_particle {
                 for a in 0..D {
@@ -463,7 +463,7 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         })?;
         // The body force int (rho b)_hat phi is mapped like a momentum, with the fits of
         // the same pass.
-        self.fit_stress_and_density(particles, cell_start, per_particle);
+        self.fit_stress_and_density(particles, bins, per_particle);
         let mut mass_force = std::mem::take(&mut fields.mass_force);
         let with_body = per_particle.is_some();
         with_fixed_support!(basis, N => {
@@ -492,20 +492,49 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         Ok(())
     }
 
+    /// The bins of the particles' current cells, taken out of `self` (rebuilt unless the
+    /// particles have not moved since the last build); put them back after use.
+    fn current_bins(&mut self, particles: &TensorParticles<D>) -> CellBins {
+        let mut bins = std::mem::take(&mut self.bins);
+        if !bins.fresh {
+            bins.rebuild(self.grid.num_cells(), &particles.cell);
+        }
+        bins
+    }
+}
+
+impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
+    fn name(&self) -> &'static str {
+        "tls"
+    }
+
+    fn particle_domains(&self) -> &Option<[f64; D]> {
+        &self.particle_domains
+    }
+
+    fn map_mass_and_force<B: Basis>(
+        &mut self,
+        basis: &TensorBasis<D, B>,
+        particles: &TensorParticles<D>,
+        _cell_start: &[usize],
+        body: TensorBody<'_, D>,
+        fields: &mut TensorGridFields<D>,
+    ) -> Result<()> {
+        self.bins.fresh = false;
+        let bins = self.current_bins(particles);
+        let mapped = self.map_mass_and_force_in_bins(basis, particles, &bins, body, fields);
+        self.bins = bins;
+        mapped
+    }
+
     fn map_momentum<B: Basis>(
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &TensorParticles<D>,
-        cell_start: &[usize],
+        _cell_start: &[usize],
         fields: &mut TensorGridFields<D>,
     ) -> Result<()> {
-        self.map_vector(
-            basis,
-            particles,
-            cell_start,
-            &particles.v,
-            &mut fields.momentum,
-        )
+        self.map_vector(basis, particles, &particles.v, &mut fields.momentum)
     }
 
     fn update_velocities_and_map_momentum<B: Basis>(
@@ -530,6 +559,14 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
     fn distribute(&mut self, slab: Arc<dyn SlabCells>) -> Result<()> {
         self.slab = Some(slab);
         Ok(())
+    }
+
+    fn bin_slack(&self) -> usize {
+        TLS_BIN_SLACK
+    }
+
+    fn forget_shapes(&mut self) {
+        self.bins.fresh = false;
     }
 
     fn remedies(&self) -> RemedyCounts {
@@ -604,11 +641,13 @@ fn update_velocities<const D: usize, B: Basis, const N: usize>(
     total
 }
 
+mod bins;
 mod cells;
 mod fits;
 mod integrate;
 mod moments;
 mod totals;
+use bins::CellBins;
 use cells::{cell_axes, dot, max_len};
 use moments::{AxisMoments, CellMoments};
 

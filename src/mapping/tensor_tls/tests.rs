@@ -1,5 +1,6 @@
 //! Unit tests of the 2D/3D TLS mapping: conservation, fits, remedies and cell shares.
 
+use super::cells::split_shares;
 use super::*;
 use crate::grid::{BSplineBasis, GimpBasis, LinearBasis};
 use proptest::prelude::*;

@@ -18,6 +18,7 @@
 //! (`3^D` x 32 bytes per cell, written and read back twice per step at 10⁶ particles: the
 //! table cost more than the splitting). `"centres"` counts each particle in its own cell.
 
+use super::bins::CellBins;
 use super::cells::{cell_axes, split_shares};
 use crate::grid::TensorGrid;
 use crate::particles::TensorParticles;
@@ -31,7 +32,7 @@ const MIN_LAYERS_PER_TASK: usize = 4;
 
 /// `totals[c] = sum_(p in c) quantity(p)` (the `"centres"` rule).
 pub(super) fn centre_totals(
-    cell_start: &[usize],
+    bins: &CellBins,
     quantity: impl Fn(usize) -> [f64; 4] + Sync,
     totals: &mut [[f64; 4]],
 ) {
@@ -41,7 +42,7 @@ pub(super) fn centre_totals(
         .enumerate()
         .for_each(|(cell, total)| {
             *total = [0.0; 4];
-            for p in cell_start[cell]..cell_start[cell + 1] {
+            for &p in bins.of(cell) {
                 let q = quantity(p);
                 for c in 0..4 {
                     total[c] += q[c];
@@ -55,7 +56,7 @@ pub(super) fn centre_totals(
 pub(super) fn domain_totals<const D: usize>(
     grid: &TensorGrid<D>,
     particles: &TensorParticles<D>,
-    cell_start: &[usize],
+    bins: &CellBins,
     half: impl Fn(usize) -> [f64; D] + Sync,
     quantity: impl Fn(usize) -> [f64; 4] + Sync,
     totals: &mut [[f64; 4]],
@@ -70,7 +71,7 @@ pub(super) fn domain_totals<const D: usize>(
             out.fill([0.0; 4]);
             let cell = layer * per_layer + offset;
             let index = cell_axes(grid, cell);
-            for p in cell_start[cell]..cell_start[cell + 1] {
+            for &p in bins.of(cell) {
                 split_shares(
                     grid,
                     index,
