@@ -65,6 +65,21 @@ pub(super) fn domain_totals<const D: usize>(
     let per_layer = grid.cells_per_layer();
     let layers = grid.axes[D - 1].cells;
     let layers_per_task = CELLS_PER_TASK.div_ceil(per_layer).max(MIN_LAYERS_PER_TASK);
+    // Share slot `k` (base-3 digits `o_a + 1`) of the cell at `-o` gives to this cell: the
+    // offsets `o` and the shift of the source within its layer (no divisions per cell).
+    let neighbours: Vec<([isize; D], isize)> = (0..k3)
+        .map(|k| {
+            let o: [isize; D] =
+                std::array::from_fn(|a| (k / 3usize.pow(a as u32) % 3) as isize - 1);
+            let mut shift = 0;
+            let mut stride = 1;
+            for a in 0..D - 1 {
+                shift += o[a] * stride;
+                stride *= grid.axes[a].cells as isize;
+            }
+            (o, shift)
+        })
+        .collect();
     // The shares of every cell of layer `layer` into `ring` (`k3` per cell).
     let split_layer = |layer: usize, ring: &mut [[f64; 4]]| {
         for (offset, out) in ring.chunks_exact_mut(k3).enumerate() {
@@ -108,20 +123,14 @@ pub(super) fn domain_totals<const D: usize>(
                     // From the highest offset down: in 1D from the left neighbour, own,
                     // from the right neighbour (the 1D order).
                     for k in (0..k3).rev() {
-                        let mut source = [0usize; D];
-                        let mut inside = true;
-                        let mut rest = k;
-                        for a in 0..D {
-                            let o = (rest % 3) as isize - 1;
-                            rest /= 3;
-                            let s = index[a] as isize - o;
-                            inside &= s >= 0 && (s as usize) < grid.axes[a].cells;
-                            source[a] = s.max(0) as usize;
-                        }
+                        let (o, shift) = &neighbours[k];
+                        let inside = (0..D).all(|a| {
+                            let s = index[a] as isize - o[a];
+                            s >= 0 && (s as usize) < grid.axes[a].cells
+                        });
                         if inside {
-                            let source_cell = grid.cell_index(source);
-                            let (source_layer, source_offset) =
-                                (source_cell / per_layer, source_cell % per_layer);
+                            let source_layer = (layer as isize - o[D - 1]) as usize;
+                            let source_offset = (offset as isize - shift) as usize;
                             let share = ring[slot(source_layer) + source_offset * k3 + k];
                             for c in 0..4 {
                                 total[c] += share[c];
