@@ -81,9 +81,10 @@ pub trait TensorMapping<const D: usize>: Send + Sync {
 
     /// How many layers of cells (along the last axis) a particle may move away from the
     /// cell it was binned in before the particles must be re-sorted: 0 (the default) for
-    /// mappings that need every particle in its current cell's bin (per-cell fits), more
+    /// mappings that need every particle in its current cell's bin of `cell_start`, more
     /// for mappings whose scatter buffers are widened to match
-    /// ([`super::tensor_scatter::TensorScatter::with_slack`]).
+    /// ([`super::tensor_scatter::TensorScatter::with_slack`]) or that bin the particles
+    /// themselves (TLS: per-cell index lists).
     fn bin_slack(&self) -> usize {
         0
     }

@@ -12,8 +12,9 @@
 //!    rho_p = m_p / V_p is derived where it is needed, not stored)
 //! ```
 //! then the new cells, the counting sort when the mapping's bins went stale (a particle
-//! changed cell for per-cell fits; strayed more than `TensorMapping::bin_slack` layers of
-//! cells from its bin for the direct mapping), and the
+//! strayed more than `TensorMapping::bin_slack` layers of cells from its bin: 0 for a
+//! mapping that needs the arrays in exact cell order; the direct mapping and TLS take 1),
+//! and the
 //! conservation errors of the mapping: mass `|sum_I m_I - sum_p m_p| / sum_p m_p`, and per
 //! momentum component `|sum_I p_I - sum_p m_p v_p| / sum_p m_p |v_p|`, the largest over
 //! the components.
