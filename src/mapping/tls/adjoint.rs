@@ -277,10 +277,7 @@ impl TlsMapping {
                 });
             });
         let conservative = self.conservative_stress;
-        let context = FitContext {
-            conservative_terms: 3,
-            ..self.context()
-        };
+        let context = self.context().for_stress();
         pull_back_field(
             &context,
             &self.stress,

@@ -75,6 +75,16 @@ pub(super) struct FitContext<'a> {
 }
 
 impl FitContext<'_> {
+    /// The context of the stress fit: a conservative stress fit
+    /// (`method.stress_fit = "conservative"`) keeps every Taylor function, whatever
+    /// `method.conservative_degree` says for density and momentum.
+    pub(super) fn for_stress(&self) -> Self {
+        FitContext {
+            conservative_terms: 3,
+            ..*self
+        }
+    }
+
     /// Taylor functions a fit of `kind` starts from: 3 for a full fit,
     /// `conservative_terms` for a conservative one.
     pub(super) fn terms(&self, kind: FitKind) -> usize {
@@ -226,7 +236,7 @@ pub(super) fn limit_density(
 }
 
 /// Kinetic-energy limiter of a conservative momentum fit (`method.momentum_limiter =
-/// "kinetic_energy"`, docs/reconstruction.md "Kinetic-energy limiter"): replace the
+/// "kinetic_energy"`, docs/reconstruction.md "Energy-consistent TLS"): replace the
 /// momentum fit `m` of the cell `[lo, hi]` by
 ///
 /// ```text

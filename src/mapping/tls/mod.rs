@@ -255,10 +255,7 @@ impl Mapping for TlsMapping {
             sums,
             conservative_terms: self.conservative_terms,
         };
-        let stress_context = FitContext {
-            conservative_terms: 3,
-            ..context
-        };
+        let stress_context = context.for_stress();
         let density_kind = |cell: usize| {
             FitKind::Conservative(cell_total(sums, cell, |s| s.mass_shares) / domains.length(cell))
         };
