@@ -5,6 +5,44 @@
 
 use super::Particles;
 
+/// The stable counting sort by cell shared by every particle store: fills `cell_start`
+/// (`cells + 1` entries, `cell_start[e]` the first slot of cell `e`) from `cell` (each
+/// `< cells`) and returns `true` when `cell` is already non-decreasing; otherwise fills
+/// `order` with the particles of cell 0, then of cell 1, ..., each cell's in storage order,
+/// and returns `false`.
+///
+/// ```
+/// let (mut start, mut order) = (Vec::new(), Vec::new());
+/// assert!(!tlsmpm::particles::counting_order(&[2, 0, 2, 1], 3, &mut start, &mut order));
+/// assert_eq!((start, order), (vec![0, 1, 2, 4], vec![1, 3, 0, 2]));
+/// ```
+pub fn counting_order(
+    cell: &[usize],
+    cells: usize,
+    cell_start: &mut Vec<usize>,
+    order: &mut Vec<usize>,
+) -> bool {
+    cell_start.clear();
+    cell_start.resize(cells + 1, 0);
+    for &c in cell {
+        cell_start[c + 1] += 1;
+    }
+    for e in 0..cells {
+        cell_start[e + 1] += cell_start[e];
+    }
+    if cell.windows(2).all(|w| w[0] <= w[1]) {
+        return true;
+    }
+    order.clear();
+    order.resize(cell.len(), 0);
+    let mut next = cell_start[..cells].to_vec();
+    for (k, &c) in cell.iter().enumerate() {
+        order[next[c]] = k;
+        next[c] += 1;
+    }
+    false
+}
+
 /// Sorted per-cell bins: `cell_start` has `N_e + 1` entries.
 #[derive(Clone, Debug, Default)]
 pub struct CellBins {
@@ -52,24 +90,13 @@ impl CellBins {
     /// Counting-sort `particles` by `particles.cell` into `cells` bins, permuting the
     /// particle arrays only when the order actually changed.
     pub fn sort(&mut self, particles: &mut Particles, cells: usize) {
-        self.cell_start.clear();
-        self.cell_start.resize(cells + 1, 0);
-        for &c in &particles.cell {
-            self.cell_start[c + 1] += 1;
-        }
-        for e in 0..cells {
-            self.cell_start[e + 1] += self.cell_start[e];
-        }
-        let sorted = particles.cell.windows(2).all(|w| w[0] <= w[1]);
-        if sorted {
+        if counting_order(
+            &particles.cell,
+            cells,
+            &mut self.cell_start,
+            &mut self.order,
+        ) {
             return;
-        }
-        self.order.clear();
-        self.order.resize(particles.len(), 0);
-        let mut next = self.cell_start.clone();
-        for (k, &c) in particles.cell.iter().enumerate() {
-            self.order[next[c]] = k;
-            next[c] += 1;
         }
         particles.permute(&self.order, &mut self.scratch);
     }

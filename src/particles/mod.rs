@@ -8,7 +8,7 @@ pub mod bins;
 pub mod records;
 pub mod tensor;
 
-pub use bins::CellBins;
+pub use bins::{counting_order, CellBins};
 pub use tensor::TensorParticles;
 
 /// Pore-liquid fields of two-phase particles (SPEC §2.1), in the storage order of the

@@ -185,23 +185,8 @@ impl<const D: usize> TensorParticles<D> {
         cell_start: &mut Vec<usize>,
         order: &mut Vec<usize>,
     ) {
-        cell_start.clear();
-        cell_start.resize(cells + 1, 0);
-        for &c in &self.cell {
-            cell_start[c + 1] += 1;
-        }
-        for e in 0..cells {
-            cell_start[e + 1] += cell_start[e];
-        }
-        if self.cell.windows(2).all(|w| w[0] <= w[1]) {
+        if super::bins::counting_order(&self.cell, cells, cell_start, order) {
             return;
-        }
-        order.clear();
-        order.resize(self.len(), 0);
-        let mut next = cell_start.clone();
-        for (k, &c) in self.cell.iter().enumerate() {
-            order[next[c]] = k;
-            next[c] += 1;
         }
         use rayon::prelude::*;
         let order_ref: &[usize] = order;

@@ -8,43 +8,28 @@
 //! a grid crossing (a fifth of the particle update at 10⁶ particles). A cell's particles
 //! are listed in storage order.
 
+use crate::particles::counting_order;
+
 /// Per-cell particle lists: `particles[start[c]..start[c + 1]]` are the particles of
 /// cell `c`, in storage order.
 #[derive(Clone, Debug, Default)]
-pub(super) struct CellBins {
+pub(super) struct CellParticles {
     start: Vec<usize>,
     particles: Vec<usize>,
     /// Built from the current `cell` of the particles (cleared when they move).
     pub(super) fresh: bool,
 }
 
-impl CellBins {
+impl CellParticles {
     /// Bin the particles by `cell` (each `< cells`).
     ///
     /// ```text
     /// cell = [2, 0, 2, 1]  ->  start = [0, 1, 2, 4], particles = [1, 3, 0, 2]
     /// ```
     pub(super) fn rebuild(&mut self, cells: usize, cell: &[usize]) {
-        self.start.clear();
-        self.start.resize(cells + 1, 0);
-        for &c in cell {
-            self.start[c + 1] += 1;
-        }
-        for e in 0..cells {
-            self.start[e + 1] += self.start[e];
-        }
-        self.particles.clear();
-        self.particles.resize(cell.len(), 0);
-        if cell.windows(2).all(|w| w[0] <= w[1]) {
-            for (k, p) in self.particles.iter_mut().enumerate() {
-                *p = k;
-            }
-        } else {
-            let mut next = self.start[..cells].to_vec();
-            for (p, &c) in cell.iter().enumerate() {
-                self.particles[next[c]] = p;
-                next[c] += 1;
-            }
+        if counting_order(cell, cells, &mut self.start, &mut self.particles) {
+            self.particles.clear();
+            self.particles.extend(0..cell.len());
         }
         self.fresh = true;
     }
@@ -68,7 +53,7 @@ mod tests {
 
     #[test]
     fn bins_list_each_cells_particles_in_storage_order() {
-        let mut bins = CellBins::default();
+        let mut bins = CellParticles::default();
         bins.rebuild(4, &[2, 0, 2, 1, 0]);
         assert_eq!(bins.of(0), &[1, 4]);
         assert_eq!(bins.of(1), &[3]);

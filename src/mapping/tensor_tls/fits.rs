@@ -7,7 +7,7 @@
 // Index loops: the indices enter the formulas (terms, axes).
 #![allow(clippy::needless_range_loop)]
 
-use super::bins::CellBins;
+use super::bins::CellParticles;
 use super::cells::{box_volume, limit_density};
 use super::{stress_components, TensorTlsMapping, CELLS_PER_TASK, MAX_DEGREE};
 use crate::error::Result;
@@ -25,7 +25,7 @@ impl<const D: usize> TensorTlsMapping<D> {
     pub(super) fn fit_stress_and_density(
         &mut self,
         particles: &TensorParticles<D>,
-        bins: &CellBins,
+        bins: &CellParticles,
         body: Option<&[Vec<f64>; D]>,
     ) {
         let components = stress_components::<D>();
@@ -104,7 +104,7 @@ impl<const D: usize> TensorTlsMapping<D> {
     pub(super) fn fit_vector(
         &mut self,
         particles: &TensorParticles<D>,
-        bins: &CellBins,
+        bins: &CellParticles,
         values: &[Vec<f64>; D],
     ) -> Result<()> {
         self.update_totals(particles, bins, |p| {

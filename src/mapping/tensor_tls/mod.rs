@@ -176,7 +176,7 @@ pub struct TensorTlsMapping<const D: usize> {
     /// Conserved totals per cell (mass, or the `D` components of a vector).
     cell_totals: Vec<[f64; 4]>,
     /// The particles of each cell, by index (rebuilt at every mass and force map).
-    bins: CellBins,
+    bins: CellParticles,
     /// Stress coefficients, `stress_components` per cell.
     stress: Vec<[f64; MAX_TERMS]>,
     density: Vec<[f64; MAX_TERMS]>,
@@ -225,7 +225,7 @@ impl<const D: usize> TensorTlsMapping<D> {
             active: vec![false; cells],
             moments: std::array::from_fn(|_| AxisMoments::default()),
             cell_totals: vec![[0.0; 4]; cells],
-            bins: CellBins::default(),
+            bins: CellParticles::default(),
             stress: vec![[0.0; MAX_TERMS]; cells * stress_components::<D>().len()],
             density: vec![[0.0; MAX_TERMS]; cells],
             vector: vec![[0.0; MAX_TERMS]; cells * D],
@@ -324,7 +324,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &TensorParticles<D>,
-        bins: &CellBins,
+        bins: &CellParticles,
     ) -> Result<()> {
         let n = particles.len();
         let this = &*self;
@@ -397,7 +397,7 @@ impl<const D: usize> TensorTlsMapping<D> {
     fn update_totals(
         &mut self,
         particles: &TensorParticles<D>,
-        bins: &CellBins,
+        bins: &CellParticles,
         quantity: impl Fn(usize) -> [f64; 4] + Sync,
     ) -> Result<()> {
         match self.totals {
@@ -443,7 +443,7 @@ impl<const D: usize> TensorTlsMapping<D> {
         &mut self,
         basis: &TensorBasis<D, B>,
         particles: &TensorParticles<D>,
-        bins: &CellBins,
+        bins: &CellParticles,
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
     ) -> Result<()> {
@@ -494,7 +494,7 @@ impl<const D: usize> TensorTlsMapping<D> {
 
     /// The bins of the particles' current cells, taken out of `self` (rebuilt unless the
     /// particles have not moved since the last build); put them back after use.
-    fn current_bins(&mut self, particles: &TensorParticles<D>) -> CellBins {
+    fn current_bins(&mut self, particles: &TensorParticles<D>) -> CellParticles {
         let mut bins = std::mem::take(&mut self.bins);
         if !bins.fresh {
             bins.rebuild(self.grid.num_cells(), &particles.cell);
@@ -520,8 +520,8 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
     ) -> Result<()> {
-        self.bins.fresh = false;
-        let bins = self.current_bins(particles);
+        let mut bins = std::mem::take(&mut self.bins);
+        bins.rebuild(self.grid.num_cells(), &particles.cell);
         let mapped = self.map_mass_and_force_in_bins(basis, particles, &bins, body, fields);
         self.bins = bins;
         mapped
@@ -647,7 +647,7 @@ mod fits;
 mod integrate;
 mod moments;
 mod totals;
-use bins::CellBins;
+use bins::CellParticles;
 use cells::{cell_axes, dot, max_len};
 use moments::{AxisMoments, CellMoments};
 

@@ -18,7 +18,7 @@
 //! (`3^D` x 32 bytes per cell, written and read back twice per step at 10⁶ particles: the
 //! table cost more than the splitting). `"centres"` counts each particle in its own cell.
 
-use super::bins::CellBins;
+use super::bins::CellParticles;
 use super::cells::{cell_axes, split_shares};
 use crate::grid::TensorGrid;
 use crate::particles::TensorParticles;
@@ -32,7 +32,7 @@ const MIN_LAYERS_PER_TASK: usize = 4;
 
 /// `totals[c] = sum_(p in c) quantity(p)` (the `"centres"` rule).
 pub(super) fn centre_totals(
-    bins: &CellBins,
+    bins: &CellParticles,
     quantity: impl Fn(usize) -> [f64; 4] + Sync,
     totals: &mut [[f64; 4]],
 ) {
@@ -56,7 +56,7 @@ pub(super) fn centre_totals(
 pub(super) fn domain_totals<const D: usize>(
     grid: &TensorGrid<D>,
     particles: &TensorParticles<D>,
-    bins: &CellBins,
+    bins: &CellParticles,
     half: impl Fn(usize) -> [f64; D] + Sync,
     quantity: impl Fn(usize) -> [f64; 4] + Sync,
     totals: &mut [[f64; 4]],
