@@ -354,6 +354,18 @@ fn consistent_mass_results_are_bitwise_identical_on_one_and_three_threads() {
     let serial = run_nd::<2>("axis_aligned_mms", &sets, 1).1;
     let parallel = run_nd::<2>("axis_aligned_mms", &sets, 3).1;
     assert_eq!(bits(&serial.particles), bits(&parallel.particles), "2D");
+    // 132^2 DOFs: above `linalg::vectors::PARALLEL_MIN_LEN`, so the CG's dot products are
+    // blocked sums over the pool and the Kronecker transposes run in parallel tiles.
+    let long = [
+        "method.reconstruction=\"tls\"",
+        "method.mass=\"consistent\"",
+        "solver.kind=\"kron\"",
+        "grid.cells=130",
+        "time.end=0.00003",
+    ];
+    let serial = run_nd::<2>("axis_aligned_mms", &long, 1).1;
+    let parallel = run_nd::<2>("axis_aligned_mms", &long, 3).1;
+    assert_eq!(bits(&serial.particles), bits(&parallel.particles), "2D, 132^2 DOFs");
     let sets3 = [
         "method.reconstruction=\"tls\"",
         "method.mass=\"consistent\"",

@@ -13,7 +13,8 @@
 //! The preconditioner `P` is a type implementing [`Preconditioner`]: the identity (plain
 //! CG, [`ConjugateGradient`]), Jacobi ([`JacobiCg`]), a p-multigrid V-cycle or the scaled
 //! Kronecker inverse. Products with `A` run over the rayon pool in fixed row blocks and
-//! the dot products are serial, so the iterates are bitwise the same for any thread count.
+//! the vector operations in fixed blocks ([`super::vectors`]), so the iterates are bitwise
+//! the same for any thread count.
 
 mod iteration;
 
@@ -81,9 +82,8 @@ impl Preconditioner for Jacobi {
         Ok(())
     }
     fn apply(&mut self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
-        for ((zi, ri), di) in z.iter_mut().zip(r).zip(&self.inverse_diagonal) {
-            *zi = ri * di;
-        }
+        let inverse_diagonal = &self.inverse_diagonal;
+        super::vectors::update_each(z, |i, _| r[i] * inverse_diagonal[i]);
     }
 }
 
@@ -95,8 +95,6 @@ pub struct Pcg<P> {
     pub preconditioner: P,
     /// The vectors of each system of a solve (one, or several in lockstep).
     systems: Vec<iteration::CgVectors>,
-    /// Scratch for the products `A d` of several systems, interleaved by row.
-    interleaved: Vec<f64>,
     /// Whether the preconditioner is set up for the matrix of the last solve.
     prepared: bool,
 }
@@ -121,7 +119,6 @@ impl<P: Preconditioner> Pcg<P> {
             max_iterations,
             preconditioner,
             systems: Vec::new(),
-            interleaved: Vec::new(),
             prepared: false,
         }
     }

@@ -21,6 +21,7 @@
 //! positive definite on the remaining DOFs.
 
 use super::cg::Preconditioner;
+use super::vectors::update_each;
 use super::{BandedCholesky, CsrMatrix};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -104,16 +105,11 @@ impl KroneckerFactors {
         for d in 1..self.dims.len() {
             let inner: usize = self.dims[..d].iter().product();
             let n = self.dims[d];
-            let slab = n * inner;
             self.line_work.resize(total, 0.0);
             self.transposed.resize(total, 0.0);
-            for (z_slab, work) in z.chunks(slab).zip(self.line_work.chunks_mut(slab)) {
-                transpose(z_slab, inner, n, work);
-            }
+            transpose_slabs(z, inner, n, &mut self.line_work);
             solve_lines(&self.factors[d], n, &self.line_work, &mut self.transposed);
-            for (lines, z_slab) in self.transposed.chunks(slab).zip(z.chunks_mut(slab)) {
-                transpose(lines, n, inner, z_slab);
-            }
+            transpose_slabs(&self.transposed, n, inner, z);
         }
     }
 }
@@ -146,11 +142,42 @@ fn solve_lines(factor: &BandedCholesky, n: usize, b: &[f64], x: &mut [f64]) {
     }
 }
 
-/// `out[j * rows + i] = a[i * cols + j]` for the row-major `rows x cols` array `a`.
-fn transpose(a: &[f64], cols: usize, rows: usize, out: &mut [f64]) {
-    for (i, row) in a.chunks(cols).enumerate().take(rows) {
-        for (j, &v) in row.iter().enumerate() {
-            out[j * rows + i] = v;
+/// [`transpose`] of every slab of `rows x cols` entries of `a` into `out`: over the rayon
+/// pool for long vectors, by slabs when there are several, by [`TRANSPOSE_TILE`] output
+/// lines within the one slab otherwise (a copy: the same result for any split).
+fn transpose_slabs(a: &[f64], cols: usize, rows: usize, out: &mut [f64]) {
+    let slab = rows * cols;
+    let (a, out) = (&a[..out.len()], &mut out[..]);
+    if a.len() < PARALLEL_MIN_DOFS {
+        for (a, out) in a.chunks(slab).zip(out.chunks_mut(slab)) {
+            transpose(a, cols, rows, out, 0);
+        }
+    } else if a.len() > slab {
+        a.par_chunks(slab)
+            .zip(out.par_chunks_mut(slab))
+            .for_each(|(a, out)| transpose(a, cols, rows, out, 0));
+    } else {
+        out.par_chunks_mut(TRANSPOSE_TILE * rows)
+            .enumerate()
+            .for_each(|(tile, out)| transpose(a, cols, rows, out, tile * TRANSPOSE_TILE));
+    }
+}
+
+/// Output lines (columns of the input) per task of a parallel transpose.
+const TRANSPOSE_TILE: usize = 32;
+
+/// `out[(j - first) * rows + i] = a[i * cols + j]` for the row-major `rows x cols` array
+/// `a` and the columns `j = first ..` that `out` holds, [`TRANSPOSE_TILE`] columns at a
+/// time (each input row's stretch of the tile is one or two cache lines).
+fn transpose(a: &[f64], cols: usize, rows: usize, out: &mut [f64], first: usize) {
+    let columns = out.len() / rows;
+    for tile_start in (0..columns).step_by(TRANSPOSE_TILE) {
+        let width = TRANSPOSE_TILE.min(columns - tile_start);
+        let j0 = first + tile_start;
+        for (i, row) in a.chunks(cols).enumerate().take(rows) {
+            for (t, &v) in row[j0..j0 + width].iter().enumerate() {
+                out[(tile_start + t) * rows + i] = v;
+            }
         }
     }
 }
@@ -243,18 +270,10 @@ impl Preconditioner for KroneckerPreconditioner {
     }
 
     fn apply(&mut self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
-        for ((t, ri), s) in self
-            .scaled
-            .iter_mut()
-            .zip(r)
-            .zip(&self.inverse_sqrt_scaling)
-        {
-            *t = s * ri;
-        }
+        let (scaling, decoupled) = (&self.inverse_sqrt_scaling, &self.decoupled_inverse);
+        update_each(&mut self.scaled, |i, _| scaling[i] * r[i]);
         self.kronecker.solve(&self.scaled, z);
-        for (i, zi) in z.iter_mut().enumerate() {
-            *zi = self.inverse_sqrt_scaling[i] * *zi + self.decoupled_inverse[i] * r[i];
-        }
+        update_each(z, |i, zi| scaling[i] * zi + decoupled[i] * r[i]);
     }
 }
 
@@ -263,6 +282,26 @@ mod tests {
     use super::*;
     use crate::linalg::assembly::{interior, load_1d, mass_1d, mass_2d, SplineSpace};
     use crate::linalg::{LinearSolver, Pcg};
+
+    /// The slab transposes (serial below `PARALLEL_MIN_DOFS`, by slabs, or by tiles of one
+    /// slab) are the plain index transpose, with column counts that are no multiple of the
+    /// tile.
+    #[test]
+    fn slab_transposes_are_index_transposes() {
+        for (slabs, rows, cols) in [(1, 7, 5), (1, 130, 203), (3, 70, 90), (40, 23, 31)] {
+            let a: Vec<f64> = (0..slabs * rows * cols).map(|v| v as f64).collect();
+            let mut out = vec![0.0; a.len()];
+            transpose_slabs(&a, cols, rows, &mut out);
+            for s in 0..slabs {
+                for i in 0..rows {
+                    for j in 0..cols {
+                        let slab = s * rows * cols;
+                        assert_eq!(out[slab + j * rows + i], a[slab + i * cols + j]);
+                    }
+                }
+            }
+        }
+    }
 
     fn interior_mass(space: &SplineSpace) -> CsrMatrix {
         let keep = interior(space.functions());

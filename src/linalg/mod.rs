@@ -16,6 +16,7 @@ pub mod csr;
 pub mod direct;
 pub mod kron;
 pub mod pmg;
+pub mod vectors;
 
 pub use banded::BandedCholesky;
 pub use cg::{ConjugateGradient, Identity, Jacobi, JacobiCg, Pcg, Preconditioner};

@@ -2,13 +2,14 @@
 //! of the same matrix in lockstep.
 //!
 //! In lockstep every iteration computes the products `A d_s` of all systems `s` not yet
-//! converged in one pass over `A` ([`CsrMatrix::par_mul_vecs_interleaved`]): the matrix,
+//! converged in one pass over `A` ([`CsrMatrix::par_mul_vecs`]): the matrix,
 //! the largest array of the solve, is read once for all of them. Each system keeps its own
 //! scalars and vectors and runs the operations of its own solve in the same order, so its
 //! iterates are bitwise those of [`Pcg::run_one`] on it alone; a system stops at its own
 //! convergence while the others go on.
 
-use super::{dot, Pcg, Preconditioner};
+use super::{Pcg, Preconditioner};
+use crate::linalg::vectors::{cg_step, dot, new_direction, project, project_dot, residual};
 use crate::error::{Error, Result};
 use crate::linalg::{check_dimensions, check_mask, CsrMatrix, RestrictedSystem, SolveStats};
 
@@ -37,38 +38,12 @@ struct Progress {
     done: Option<SolveStats>,
 }
 
-/// `v_i = 0` where `keep[i]` is false (no-op without a restriction).
-fn project(v: &mut [f64], keep: Option<&[bool]>) {
-    if let Some(keep) = keep {
-        for (vi, &k) in v.iter_mut().zip(keep) {
-            if !k {
-                *vi = 0.0;
-            }
-        }
-    }
-}
-
-/// `outputs[s] = A inputs[s]`: one product alone, or several in one pass over `a` through
-/// the row-interleaved scratch `interleaved`.
-fn products(
-    a: &CsrMatrix,
-    inputs: &[&[f64]],
-    outputs: &mut [&mut [f64]],
-    interleaved: &mut Vec<f64>,
-) {
+/// `outputs[s] = A inputs[s]`: one product alone, or several in one pass over `a`.
+fn products(a: &CsrMatrix, inputs: &[&[f64]], outputs: &mut [&mut [f64]]) {
     match (inputs, outputs) {
         ([], _) => {}
         ([x], [y]) => a.par_mul_vec(x, y),
-        (inputs, outputs) => {
-            let k = inputs.len();
-            interleaved.resize(k * a.rows, 0.0);
-            a.par_mul_vecs_interleaved(inputs, interleaved);
-            for (s, y) in outputs.iter_mut().enumerate() {
-                for (yi, row) in y.iter_mut().zip(interleaved.chunks_exact(k)) {
-                    *yi = row[s];
-                }
-            }
-        }
+        (inputs, outputs) => a.par_mul_vecs(inputs, outputs),
     }
 }
 
@@ -165,22 +140,19 @@ impl<P: Preconditioner> Pcg<P> {
                 .filter(|(_, state)| state.done.is_none())
                 .map(|(vectors, _)| &mut vectors.product[..])
                 .collect();
-            products(a, &inputs, &mut outputs, &mut self.interleaved);
+            products(a, &inputs, &mut outputs);
         }
         for ((system, vectors), state) in systems.iter().zip(&mut self.systems).zip(&mut progress) {
             if state.done.is_some() {
                 continue;
             }
-            for ((r, bi), q) in vectors
-                .residual
-                .iter_mut()
-                .zip(system.b)
-                .zip(&vectors.product)
-            {
-                *r = bi - q;
-            }
-            project(&mut vectors.residual, system.keep);
-            state.relative = dot(&vectors.residual, &vectors.residual).sqrt() / state.b_norm;
+            let rr = residual(
+                &mut vectors.residual,
+                system.b,
+                &vectors.product,
+                system.keep,
+            );
+            state.relative = rr.sqrt() / state.b_norm;
             if state.relative < self.tolerance {
                 state.done = Some(SolveStats {
                     iterations: 0,
@@ -209,9 +181,8 @@ impl<P: Preconditioner> Pcg<P> {
                 ..
             } = vectors;
             self.preconditioner.apply(a, r, z);
-            project(z, system.keep);
+            state.rz = project_dot(z, system.keep, r);
             d.copy_from_slice(z);
-            state.rz = dot(r, z);
         }
         for k in 1..=self.max_iterations {
             {
@@ -225,7 +196,7 @@ impl<P: Preconditioner> Pcg<P> {
                 if inputs.is_empty() {
                     break;
                 }
-                products(a, &inputs, &mut outputs, &mut self.interleaved);
+                products(a, &inputs, &mut outputs);
             }
             for ((system, vectors), state) in
                 systems.iter_mut().zip(&mut self.systems).zip(&mut progress)
@@ -240,8 +211,7 @@ impl<P: Preconditioner> Pcg<P> {
                     product: q,
                 } = vectors;
                 let x = &mut *system.x;
-                project(q, system.keep);
-                let dq = dot(d, q);
+                let dq = project_dot(q, system.keep, d);
                 let rz = state.rz;
                 if dq.is_nan() || dq <= 0.0 || rz.is_nan() || rz <= 0.0 {
                     let name = self.preconditioner.solver_name();
@@ -254,11 +224,7 @@ impl<P: Preconditioner> Pcg<P> {
                     });
                 }
                 let alpha = rz / dq;
-                for i in 0..n {
-                    x[i] += alpha * d[i];
-                    r[i] -= alpha * q[i];
-                }
-                state.relative = dot(r, r).sqrt() / state.b_norm;
+                state.relative = cg_step(x, r, d, q, alpha).sqrt() / state.b_norm;
                 if state.relative < self.tolerance {
                     state.done = Some(SolveStats {
                         iterations: k,
@@ -267,13 +233,10 @@ impl<P: Preconditioner> Pcg<P> {
                     continue;
                 }
                 self.preconditioner.apply(a, r, z);
-                project(z, system.keep);
-                let rz_new = dot(r, z);
+                let rz_new = project_dot(z, system.keep, r);
                 let beta = rz_new / rz;
                 state.rz = rz_new;
-                for i in 0..n {
-                    d[i] = z[i] + beta * d[i];
-                }
+                new_direction(d, z, beta);
             }
         }
         match progress.iter().find(|state| state.done.is_none()) {
