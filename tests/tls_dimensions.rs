@@ -365,7 +365,11 @@ fn consistent_mass_results_are_bitwise_identical_on_one_and_three_threads() {
     ];
     let serial = run_nd::<2>("axis_aligned_mms", &long, 1).1;
     let parallel = run_nd::<2>("axis_aligned_mms", &long, 3).1;
-    assert_eq!(bits(&serial.particles), bits(&parallel.particles), "2D, 132^2 DOFs");
+    assert_eq!(
+        bits(&serial.particles),
+        bits(&parallel.particles),
+        "2D, 132^2 DOFs"
+    );
     let sets3 = [
         "method.reconstruction=\"tls\"",
         "method.mass=\"consistent\"",

@@ -213,41 +213,6 @@ impl CsrMatrix {
             });
     }
 
-    /// `y[i K + s] = (A x_s)_i` for the `K = xs.len()` vectors `xs`, rows split over the
-    /// rayon pool in fixed blocks: one pass over `A` for all of them (each row is read
-    /// from memory once and from cache for the other vectors). Every entry is summed as by
-    /// [`CsrMatrix::mul_vec`], so each product is bitwise [`CsrMatrix::par_mul_vec`]'s.
-    ///
-    /// ```
-    /// let a = tlsmpm::linalg::CsrMatrix::from_triplets(
-    ///     2, 2, &[(0, 0, 2.0), (0, 1, 1.0), (1, 1, 3.0)]);
-    /// let mut y = vec![0.0; 4];
-    /// a.par_mul_vecs_interleaved(&[&[1.0, 1.0], &[1.0, -1.0]], &mut y);
-    /// assert_eq!(y, vec![3.0, 1.0, 3.0, -3.0]);
-    /// ```
-    pub fn par_mul_vecs_interleaved(&self, xs: &[&[f64]], y: &mut [f64]) {
-        use rayon::prelude::*;
-        let k = xs.len();
-        if k == 0 {
-            return;
-        }
-        let rows_of = |first: usize, y_block: &mut [f64]| {
-            for (offset, y_row) in y_block.chunks_exact_mut(k).enumerate() {
-                for (yi, x) in y_row.iter_mut().zip(xs) {
-                    *yi = self.row_times(first + offset, x);
-                }
-            }
-        };
-        let y = &mut y[..k * self.rows];
-        if self.rows < 2 * PAR_BLOCK {
-            rows_of(0, y);
-            return;
-        }
-        y.par_chunks_mut(k * PAR_BLOCK)
-            .enumerate()
-            .for_each(|(block, y_block)| rows_of(block * PAR_BLOCK, y_block));
-    }
-
     /// `ys[s] = A xs[s]` for every `s`, rows split over the rayon pool in fixed blocks: one
     /// pass over `A` for all the products (each row is read from memory once and from cache
     /// for the other vectors), each written straight into its own output. Every entry is

@@ -9,8 +9,8 @@
 //! convergence while the others go on.
 
 use super::{Pcg, Preconditioner};
-use crate::linalg::vectors::{cg_step, dot, new_direction, project, project_dot, residual};
 use crate::error::{Error, Result};
+use crate::linalg::vectors::{cg_step, dot, new_direction, project, project_dot, residual};
 use crate::linalg::{check_dimensions, check_mask, CsrMatrix, RestrictedSystem, SolveStats};
 
 /// The vectors of one system's iteration.
