@@ -520,8 +520,10 @@ impl<const D: usize> TensorMapping<D> for TensorTlsMapping<D> {
         body: TensorBody<'_, D>,
         fields: &mut TensorGridFields<D>,
     ) -> Result<()> {
-        let mut bins = std::mem::take(&mut self.bins);
-        bins.rebuild(self.grid.num_cells(), &particles.cell);
+        // Rebuilt at every mass and force map, whatever `fresh` says: the stepper may have
+        // re-sorted or exchanged the particles since the last map.
+        self.bins.fresh = false;
+        let bins = self.current_bins(particles);
         let mapped = self.map_mass_and_force_in_bins(basis, particles, &bins, body, fields);
         self.bins = bins;
         mapped
