@@ -55,8 +55,7 @@ impl Shape {
     #[inline(always)]
     fn dot_n<const N: usize>(&self, functions: &[f64; MAX_SUPPORT], grid_field: &[f64]) -> f64 {
         let n = self.support::<N>();
-        let g = &grid_field[self.first..self.first + n];
-        functions[..n].iter().zip(g).map(|(p, v)| p * v).sum()
+        shape_dot(&functions[..n], &grid_field[self.first..self.first + n])
     }
 
     /// The number of functions a loop over a shape from [`Basis::eval_particle_n`] runs
@@ -75,6 +74,18 @@ impl Shape {
     pub fn gradient(&self, grid_field: &[f64]) -> f64 {
         self.gradient_n::<0>(grid_field)
     }
+}
+
+/// `sum_k functions_k g_k` in index order: the one contraction of a shape with a grid
+/// field ([`Shape::interpolate_n`], [`Shape::gradient_n`], and the passes that read shapes
+/// straight from a [`super::ShapeCache`]), so that every path sums the same bits.
+///
+/// ```
+/// assert_eq!(tlsmpm::grid::basis::shape_dot(&[0.25, 0.75], &[2.0, 4.0]), 3.5);
+/// ```
+#[inline(always)]
+pub fn shape_dot(functions: &[f64], g: &[f64]) -> f64 {
+    functions.iter().zip(g).map(|(p, v)| p * v).sum()
 }
 
 /// Grid functions on a 1D background grid.

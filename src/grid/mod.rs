@@ -22,7 +22,7 @@ pub use cpdi::CpdiBasis;
 pub use ddmpm::DdmpmBasis;
 pub use gimp::GimpBasis;
 pub use linear::LinearBasis;
-pub use shape_cache::{Evaluate, ShapeCache, ShapeSource};
+pub use shape_cache::{CacheSlots, Evaluate, ShapeCache, ShapeSource};
 pub use tensor::{TensorBasis, TensorGrid, TensorShape};
 pub use tensor_shape_cache::{EvaluateTensor, ShapeSlots, TensorShapeCache, TensorShapeSource};
 

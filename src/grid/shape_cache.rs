@@ -14,6 +14,7 @@
 //! first DOF and the support size: `16 W + 9` bytes per particle (57 B for quadratic
 //! B-splines, 73 B for cubic ones and for 1D GIMP / CPDI, whose window is 4 nodes).
 
+use super::basis::shape_dot;
 use super::tensor::with_fixed_support;
 use super::{Basis, Shape};
 use rayon::prelude::*;
@@ -135,17 +136,138 @@ impl ShapeCache {
             .for_each(|(chunk, (first, len, phi, dphi))| {
                 let start = chunk * block;
                 let mut shape = Shape::default();
-                for k in 0..first.len() {
+                let mut slots = CacheSlots {
+                    width,
+                    first,
+                    len,
+                    phi,
+                    dphi,
+                };
+                for k in 0..slots.first.len() {
                     let p = start + k;
                     basis.eval_particle_n::<N>(cell[p], x[p], 0.5 * volume[p], &mut shape);
-                    let support = shape.support::<N>();
-                    first[k] = shape.first;
-                    len[k] = support as u8;
-                    let slots = k * width..k * width + support;
-                    phi[slots.clone()].copy_from_slice(&shape.phi[..support]);
-                    dphi[slots].copy_from_slice(&shape.dphi[..support]);
+                    slots.store::<N>(k, &shape);
                 }
             });
+    }
+
+    /// The number of particles the cache holds shapes of.
+    pub fn len(&self) -> usize {
+        self.first.len()
+    }
+
+    /// Whether the cache holds no shape.
+    pub fn is_empty(&self) -> bool {
+        self.first.is_empty()
+    }
+
+    /// The filled cache cut into the slots of consecutive tasks of `per_task` particles,
+    /// for a pass that reads each particle's shape and stores a new one in its place (the
+    /// particle update mapping the next step, [`crate::mapping::next`]).
+    pub fn task_slots(
+        &mut self,
+        per_task: usize,
+    ) -> impl IndexedParallelIterator<Item = CacheSlots<'_>> {
+        let width = self.width.max(1);
+        (
+            self.first.par_chunks_mut(per_task),
+            self.len.par_chunks_mut(per_task),
+            self.phi.par_chunks_mut(per_task * width),
+            self.dphi.par_chunks_mut(per_task * width),
+        )
+            .into_par_iter()
+            .map(move |(first, len, phi, dphi)| CacheSlots {
+                width,
+                first,
+                len,
+                phi,
+                dphi,
+            })
+    }
+}
+
+/// The shape slots of a run of consecutive particles of a [`ShapeCache`], indexed from 0:
+/// read a particle's shape ([`CacheSlots::load`]) and store a new one in its place
+/// ([`CacheSlots::store`]), with the `N` the cache is filled with (or `N = 0`).
+pub struct CacheSlots<'a> {
+    width: usize,
+    first: &'a mut [usize],
+    len: &'a mut [u8],
+    phi: &'a mut [f64],
+    dphi: &'a mut [f64],
+}
+
+impl CacheSlots<'_> {
+    /// The shape stored in slot `k`.
+    #[inline(always)]
+    pub fn load<const N: usize>(&self, k: usize, shape: &mut Shape) {
+        load_slot::<N>(
+            self.width, self.first, self.len, self.phi, self.dphi, k, shape,
+        );
+    }
+
+    /// `(phi^T g, dphi^T g)` of the shape in slot `k` against the grid field `g` (the
+    /// gradient only when `gradient`, else 0), read straight from the slot: bitwise
+    /// [`Shape::interpolate_n`] and [`Shape::gradient_n`] of the loaded shape.
+    #[inline(always)]
+    pub fn dots<const N: usize>(&self, k: usize, g: &[f64], gradient: bool) -> (f64, f64) {
+        let first = self.first[k];
+        let (slots, n) = if N == 0 {
+            let n = usize::from(self.len[k]);
+            (k * self.width..k * self.width + n, n)
+        } else {
+            (k * N..k * N + N, N)
+        };
+        let g = &g[first..first + n];
+        let interpolated = shape_dot(&self.phi[slots.clone()], g);
+        let slope = if gradient {
+            shape_dot(&self.dphi[slots], g)
+        } else {
+            0.0
+        };
+        (interpolated, slope)
+    }
+
+    /// Store `shape` (of support `N`, or `shape.len` when `N = 0`) in slot `k`.
+    #[inline(always)]
+    pub fn store<const N: usize>(&mut self, k: usize, shape: &Shape) {
+        let support = shape.support::<N>();
+        self.first[k] = shape.first;
+        self.len[k] = support as u8;
+        let slots = k * self.width..k * self.width + support;
+        self.phi[slots.clone()].copy_from_slice(&shape.phi[..support]);
+        self.dphi[slots].copy_from_slice(&shape.dphi[..support]);
+    }
+}
+
+/// Slot `p` of the cache arrays into `shape` (see [`ShapeCache::shape_of`]).
+#[inline(always)]
+fn load_slot<const N: usize>(
+    width: usize,
+    first: &[usize],
+    len: &[u8],
+    phi: &[f64],
+    dphi: &[f64],
+    p: usize,
+    shape: &mut Shape,
+) {
+    debug_assert!(
+        N == 0 || N == width,
+        "read with the support it was filled with"
+    );
+    shape.first = first[p];
+    if N == 0 {
+        let support = usize::from(len[p]);
+        let slots = p * width..p * width + support;
+        shape.len = support;
+        shape.phi[..support].copy_from_slice(&phi[slots.clone()]);
+        shape.dphi[..support].copy_from_slice(&dphi[slots]);
+    } else {
+        // Filled with the same `N`: `width == N` (see `fill_n`).
+        let slots = p * N..p * N + N;
+        shape.len = N;
+        shape.phi[..N].copy_from_slice(&phi[slots.clone()]);
+        shape.dphi[..N].copy_from_slice(&dphi[slots]);
     }
 }
 
@@ -160,24 +282,15 @@ impl ShapeSource for ShapeCache {
         _half_length: f64,
         shape: &mut Shape,
     ) {
-        debug_assert!(
-            N == 0 || N == self.width,
-            "read with the support it was filled with"
+        load_slot::<N>(
+            self.width,
+            &self.first,
+            &self.len,
+            &self.phi,
+            &self.dphi,
+            p,
+            shape,
         );
-        shape.first = self.first[p];
-        if N == 0 {
-            let support = usize::from(self.len[p]);
-            let slots = p * self.width..p * self.width + support;
-            shape.len = support;
-            shape.phi[..support].copy_from_slice(&self.phi[slots.clone()]);
-            shape.dphi[..support].copy_from_slice(&self.dphi[slots]);
-        } else {
-            // Filled with the same `N`: `width == N` (see `fill_n`).
-            let slots = p * N..p * N + N;
-            shape.len = N;
-            shape.phi[..N].copy_from_slice(&self.phi[slots.clone()]);
-            shape.dphi[..N].copy_from_slice(&self.dphi[slots]);
-        }
     }
 }
 

@@ -9,6 +9,7 @@
 //! up to round-off (the lumped mapping conserves mass and momentum). The consistent mass
 //! matrix, when asked for, is `M^C_ij = sum_p m_p phi_i(x_p) phi_j(x_p)`.
 
+use super::next::NextMassForce;
 use super::points::{map_mass_and_force, map_momentum, ParticlePoints};
 use super::{CellScatter, GridFields, Mapping};
 use crate::grid::{Basis, ShapeCache};
@@ -18,6 +19,7 @@ use crate::particles::{CellBins, Particles};
 #[derive(Clone, Debug, Default)]
 pub struct DirectMapping {
     scatter: CellScatter,
+    next: NextMassForce,
 }
 
 impl Mapping for DirectMapping {
@@ -69,6 +71,10 @@ impl Mapping for DirectMapping {
     ) {
         let points = ParticlePoints::with_source(particles, bins, shapes);
         map_momentum(&mut self.scatter, basis, &points, particles, bins, grid);
+    }
+
+    fn next_mass_and_force(&mut self) -> Option<&mut NextMassForce> {
+        Some(&mut self.next)
     }
 }
 

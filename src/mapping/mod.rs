@@ -12,6 +12,7 @@
 pub mod cubic_spline;
 pub mod direct;
 pub mod mls;
+pub mod next;
 pub mod points;
 pub mod quadrature;
 pub mod scatter;
@@ -219,6 +220,13 @@ pub trait Mapping: Send {
         _out: &mut Vec<f64>,
     ) -> bool {
         false
+    }
+
+    /// The sums of the next step's mass and internal force, lent to the particle update so
+    /// that it maps them on the way ([`next`]); `None` (the default) for a mapping whose
+    /// mass and force are not the direct particle sums at the particles' shapes.
+    fn next_mass_and_force(&mut self) -> Option<&mut next::NextMassForce> {
+        None
     }
 
     /// Remedies applied since the mapping was created (none for direct quadrature).

@@ -16,7 +16,7 @@
 //! fixed support, and scatter through [`CellScatter`], so every point mapping is
 //! deterministic for any thread count.
 
-use super::scatter::add_outer;
+use super::scatter::{add_outer, Local};
 use super::{CellScatter, GridFields};
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, Evaluate, Shape, ShapeSource};
@@ -130,17 +130,13 @@ fn scatter_mass_and_force<B: Basis, P: PointSet, const N: usize>(
         basis,
         bins,
         [&mut grid.mass[..], &mut grid.internal_force[..]],
-        |cell, first, [m_local, f_local]| {
+        |cell, first, local| {
             let mut shape = Shape::default();
             points.for_each_in(cell, |p, x| {
                 let v = volume[p] * w;
                 points.shape_at::<B, N>(basis, p, cell, x, 0.5 * v, &mut shape);
-                let offset = shape.first - first;
                 let (m, sv) = (mass[p] * w, stress[p] * v);
-                for k in 0..shape.support::<N>() {
-                    m_local[offset + k] += m * shape.phi[k];
-                    f_local[offset + k] += sv * shape.dphi[k];
-                }
+                add_mass_and_force::<N>(local, shape.first - first, &shape, m, sv);
             });
         },
     );
@@ -152,6 +148,26 @@ fn scatter_mass_and_force<B: Basis, P: PointSet, const N: usize>(
                 add_outer(local, shape.first - first, &shape, mass[p] * w);
             });
         });
+    }
+}
+
+/// Add a point of mass `m` and stress times volume `sv` with shape `shape` (support `N`,
+/// or `shape.len` when `N = 0`) to a cell's local mass and internal force, `offset =
+/// shape.first - window_first`: `m_k += m phi_k`, `f_k += sv dphi_k`. The one
+/// accumulation of the direct mass and force map, here and in the particle update that
+/// maps the next step ([`super::next`]), so both sum the same bits.
+#[inline(always)]
+pub(crate) fn add_mass_and_force<const N: usize>(
+    local: &mut Local<2>,
+    offset: usize,
+    shape: &Shape,
+    m: f64,
+    sv: f64,
+) {
+    let [m_local, f_local] = local;
+    for k in 0..shape.support::<N>() {
+        m_local[offset + k] += m * shape.phi[k];
+        f_local[offset + k] += sv * shape.dphi[k];
     }
 }
 

@@ -12,6 +12,7 @@ pub mod stability;
 pub mod step;
 pub mod tensor;
 pub mod two_phase;
+pub(crate) mod update;
 
 pub use body::{Body, BodySource};
 pub use boundary::Boundary;

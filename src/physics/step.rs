@@ -34,7 +34,8 @@ use crate::linalg::CsrMatrix;
 use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums, sum_block_partials};
 use crate::particles::{CellBins, Particles};
-use crate::physics::{Body, Boundary, ConstitutiveLaw, MassSystem, Material, SolverTotals};
+use crate::physics::update::{update_particles_mapping_next, update_particles_with};
+use crate::physics::{Body, Boundary, MassSystem, Material, SolverTotals};
 use rayon::prelude::*;
 
 /// Particles per rayon task in particle loops: one block of [`deterministic_sums`], so
@@ -59,6 +60,9 @@ pub struct StepReport {
     /// Kinetic and strain energy of the particles at the end of the step, when the step
     /// computed them on the way (`None`: ask [`TimeStepper::energies`]).
     pub energies: Option<(f64, f64)>,
+    /// Whether the particle update mapped the next step's shapes, mass and internal force
+    /// ([`crate::mapping::next`]), which the next step then uses.
+    pub mapped_ahead: bool,
 }
 
 /// The time stepper, generic over the basis and the mapping (monomorphised kernels).
@@ -87,6 +91,14 @@ pub struct Stepper<B: Basis, M: Mapping> {
     /// The basis at the particles, evaluated once per step for the passes that need it
     /// (bases with [`Basis::reuse_shapes`]).
     shapes: Option<ShapeCache>,
+    /// Whether the particle update maps the next step's shapes, mass and internal force
+    /// where it can ([`crate::mapping::next`]; default `true`). The particles are bitwise
+    /// the same either way; `false` gives the plain passes (for comparisons).
+    pub map_ahead: bool,
+    /// Whether the last step's update mapped this step's shapes, mass and internal force
+    /// (`fields.mass`, `fields.internal_force`). The particles must then reach the next
+    /// step as that update left them.
+    mapped_ahead: bool,
 }
 
 impl<B: Basis, M: Mapping> Stepper<B, M> {
@@ -131,6 +143,8 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             strain: Vec::new(),
             particle_acceleration: Vec::new(),
             shapes: basis.reuse_shapes().then(ShapeCache::default),
+            map_ahead: true,
+            mapped_ahead: false,
             basis,
         }
     }
@@ -149,26 +163,29 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         if self.basis.depends_on_particles() {
             self.basis.update(quadrature(particles, &self.bins));
         }
-        if let Some(shapes) = self.shapes.as_mut() {
-            shapes.fill(
+        // 1. Mass, internal and external force (mass and internal force already mapped by
+        // the last step's update, with the shapes, when it could).
+        let mapped_ahead = std::mem::replace(&mut self.mapped_ahead, false);
+        if !mapped_ahead {
+            if let Some(shapes) = self.shapes.as_mut() {
+                shapes.fill(
+                    &self.basis,
+                    &particles.x,
+                    &particles.cell,
+                    &particles.volume,
+                );
+            }
+            map_mass_and_force(
+                &mut self.mapping,
                 &self.basis,
-                &particles.x,
-                &particles.cell,
-                &particles.volume,
+                particles,
+                &self.bins,
+                &mut self.fields,
+                self.shapes.as_ref(),
             );
         }
         let shapes = self.shapes.as_ref();
         let fields = &mut self.fields;
-
-        // 1. Mass, internal and external force.
-        map_mass_and_force(
-            &mut self.mapping,
-            &self.basis,
-            particles,
-            &self.bins,
-            fields,
-            shapes,
-        );
         let grid_mass: f64 = fields.mass.iter().sum();
         let mass_error = (grid_mass - self.total_mass).abs() / self.total_mass;
         match body {
@@ -279,16 +296,39 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             dt,
             &mut self.strain,
         );
-        let outcome = update_particles_with(
-            self.material,
-            &self.basis,
-            shapes,
-            &self.grid,
-            particles,
-            &fields.velocity,
-            own_strain.then_some(self.strain.as_slice()),
-            dt,
-        );
+        // The next step's shapes, mass and internal force on the way where the mapping's
+        // are the direct particle sums at the cached shapes.
+        let ahead = self.map_ahead
+            && !own_strain
+            && !self.basis.depends_on_particles()
+            && fields.consistent_mass.is_none();
+        let next = match (self.mapping.next_mass_and_force(), self.shapes.as_mut()) {
+            (Some(next), Some(cache)) if ahead => Some((next, cache)),
+            _ => None,
+        };
+        let mapping_next = next.is_some();
+        let outcome = match next {
+            Some((next, cache)) => update_particles_mapping_next(
+                self.material,
+                &self.basis,
+                cache,
+                next,
+                &self.grid,
+                particles,
+                &fields.velocity,
+                dt,
+            ),
+            None => update_particles_with(
+                self.material,
+                &self.basis,
+                self.shapes.as_ref(),
+                &self.grid,
+                particles,
+                &fields.velocity,
+                own_strain.then_some(self.strain.as_slice()),
+                dt,
+            ),
+        };
         outcome.check(particles, step, time)?;
         if !mass_error.is_finite() {
             return Err(Error::NonFinite {
@@ -299,11 +339,27 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         }
         // Cells changed: rebuild the bins. Without crossings they are still valid.
         outcome.rebin(&mut self.bins, particles, self.grid.cells);
+        if mapping_next && outcome.sorted_by_cell {
+            if let (Some(next), Some(cache)) =
+                (self.mapping.next_mass_and_force(), self.shapes.as_ref())
+            {
+                next.reduce(
+                    &self.basis,
+                    &self.bins,
+                    cache,
+                    particles,
+                    &mut self.fields.mass,
+                    &mut self.fields.internal_force,
+                );
+                self.mapped_ahead = true;
+            }
+        }
         Ok(StepReport {
             mass_error,
             momentum_error,
             crossings: outcome.crossings,
             energies: Some(outcome.energies),
+            mapped_ahead: self.mapped_ahead,
             ..StepReport::default()
         })
     }
@@ -568,241 +624,6 @@ fn update_velocities_n<B: Basis, S: ShapeSource, const N: usize>(
     (bad, sum_block_partials(&sums))
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Failure {
-    Velocity,
-    Stress,
-    Position,
-    Volume,
-    LeftGrid,
-}
-
-/// Of one block of particles: crossings, first failure, `[kinetic, strain]` energy, and
-/// the block's new cells as `(first, last, non-decreasing within the block)`.
-type BlockOutcome = (
-    usize,
-    Option<(usize, Failure)>,
-    [f64; 2],
-    Option<(usize, usize, bool)>,
-);
-
-pub(crate) struct UpdateOutcome {
-    pub(crate) crossings: usize,
-    /// Kinetic `sum_p m_p v_p^2 / 2` and strain energy `sum_p V_p W(sigma_p, F_p)` after
-    /// the update (bitwise [`Stepper::energies`]; meaningless after a failure).
-    pub(crate) energies: (f64, f64),
-    /// First failing particle (lowest index) and what failed.
-    pub(crate) failure: Option<(usize, Failure)>,
-    /// Whether the particles are still sorted by their new cells, so that re-binning
-    /// needs no permutation ([`CellBins::rebuild_sorted`]).
-    pub(crate) sorted_by_cell: bool,
-}
-
-impl UpdateOutcome {
-    /// Re-bin `particles` after the update when cells changed: a scan of the cell
-    /// boundaries when they are still in cell order (always in 1D unless particles pass
-    /// each other), else the counting sort.
-    pub(crate) fn rebin(&self, bins: &mut CellBins, particles: &mut Particles, cells: usize) {
-        if self.crossings == 0 {
-            return;
-        }
-        if self.sorted_by_cell {
-            bins.rebuild_sorted(&particles.cell, cells);
-        } else {
-            bins.sort(particles, cells);
-        }
-    }
-}
-
-impl UpdateOutcome {
-    /// The error of the first failing particle, if any.
-    pub(crate) fn check(&self, particles: &Particles, step: usize, time: f64) -> Result<()> {
-        let Some((particle, failure)) = self.failure else {
-            return Ok(());
-        };
-        let field = match failure {
-            Failure::Velocity => "velocity",
-            Failure::Stress => "stress",
-            Failure::Position => "position",
-            Failure::Volume => {
-                return Err(Error::CollapsedVolume {
-                    particle: particles.id[particle],
-                    step,
-                    time,
-                })
-            }
-            Failure::LeftGrid => {
-                return Err(Error::LeftGrid {
-                    particle: particles.id[particle],
-                    x: particles.x[particle],
-                    step,
-                    time,
-                })
-            }
-        };
-        Err(Error::NonFinite { field, step, time })
-    }
-}
-
-/// [`update_particles`] with the law of `material` and the support of the basis,
-/// dispatched once.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn update_particles_with<B: Basis>(
-    material: Material,
-    basis: &B,
-    shapes: Option<&ShapeCache>,
-    grid: &Grid,
-    particles: &mut Particles,
-    velocity: &[f64],
-    strain: Option<&[f64]>,
-    dt: f64,
-) -> UpdateOutcome {
-    with_shape_source!(shapes, Evaluate, source => update_particles_from(
-        material, basis, source, grid, particles, velocity, strain, dt,
-    ))
-}
-
-/// [`update_particles`] with the shapes from `source`, dispatched on the law and the
-/// support.
-#[allow(clippy::too_many_arguments)]
-fn update_particles_from<B: Basis, S: ShapeSource>(
-    material: Material,
-    basis: &B,
-    source: &S,
-    grid: &Grid,
-    particles: &mut Particles,
-    velocity: &[f64],
-    strain: Option<&[f64]>,
-    dt: f64,
-) -> UpdateOutcome {
-    let kinematics = Kinematics {
-        basis,
-        source,
-        grid,
-        velocity,
-        strain,
-        dt,
-    };
-    with_fixed_support!(basis, N => match material {
-        Material::Linear(law) => update_particles::<B, S, _, N>(&kinematics, particles, law),
-        Material::Hill(law) => update_particles::<B, S, _, N>(&kinematics, particles, law),
-        Material::NeoHookean(law) => update_particles::<B, S, _, N>(&kinematics, particles, law),
-    })
-}
-
-/// What the particle update reads besides the particles.
-struct Kinematics<'a, B, S> {
-    basis: &'a B,
-    source: &'a S,
-    grid: &'a Grid,
-    velocity: &'a [f64],
-    strain: Option<&'a [f64]>,
-    dt: f64,
-}
-
-/// Steps 5–8 and the new cell of every particle. The strain increments are
-/// `dt dphi^T(x_p) v`, or `strain` when the mapping defines its own. Loops compiled for
-/// `N` functions per particle ([`Basis::eval_particle_n`]).
-fn update_particles<B: Basis, S: ShapeSource, L: ConstitutiveLaw, const N: usize>(
-    kinematics: &Kinematics<'_, B, S>,
-    particles: &mut Particles,
-    law: L,
-) -> UpdateOutcome {
-    let &Kinematics {
-        basis,
-        source,
-        grid,
-        velocity,
-        strain,
-        dt,
-    } = kinematics;
-    let (v, mass) = (&particles.v, &particles.mass);
-    let chunks = (
-        particles.x.par_chunks_mut(PARTICLES_PER_TASK),
-        particles.u.par_chunks_mut(PARTICLES_PER_TASK),
-        particles.stress.par_chunks_mut(PARTICLES_PER_TASK),
-        particles.volume.par_chunks_mut(PARTICLES_PER_TASK),
-        particles.density.par_chunks_mut(PARTICLES_PER_TASK),
-        particles.cell.par_chunks_mut(PARTICLES_PER_TASK),
-        particles
-            .deformation_gradient
-            .par_chunks_mut(PARTICLES_PER_TASK),
-    );
-    let blocks: Vec<BlockOutcome> = chunks
-        .into_par_iter()
-        .enumerate()
-        .map(|(chunk, (x, u, stress, volume, density, cell, f))| {
-            let start = chunk * PARTICLES_PER_TASK;
-            let mut shape = Shape::default();
-            let mut crossings = 0usize;
-            let mut failure = None;
-            let mut energies = [0.0; 2];
-            for k in 0..x.len() {
-                let p = start + k;
-                source.shape_of::<B, N>(basis, p, cell[k], x[k], 0.5 * volume[k], &mut shape);
-                let du = dt * shape.interpolate_n::<N>(velocity);
-                let deps = match strain {
-                    Some(strain) => strain[start + k],
-                    None => dt * shape.gradient_n::<N>(velocity),
-                };
-                u[k] += du;
-                x[k] += du;
-                f[k] *= 1.0 + deps;
-                stress[k] = law.update(stress[k], deps, f[k]);
-                volume[k] *= 1.0 + deps;
-                density[k] /= 1.0 + deps;
-                let vk = v[start + k];
-                energies[0] += 0.5 * mass[start + k] * vk * vk;
-                energies[1] += volume[k] * law.strain_energy_density(stress[k], f[k]);
-                // A collapsed particle (F <= 0) is named as such, before the NaN stress a
-                // hyperelastic law gives it.
-                let bad = if !v[start + k].is_finite() {
-                    Some(Failure::Velocity)
-                } else if f[k] <= 0.0 || volume[k] <= 0.0 {
-                    Some(Failure::Volume)
-                } else if !stress[k].is_finite() {
-                    Some(Failure::Stress)
-                } else if !x[k].is_finite() {
-                    Some(Failure::Position)
-                } else if volume[k].is_nan() {
-                    Some(Failure::Volume)
-                } else {
-                    None
-                };
-                match grid.cell_of(x[k]) {
-                    Some(c) if bad.is_none() => {
-                        crossings += usize::from(c != cell[k]);
-                        cell[k] = c;
-                    }
-                    None if bad.is_none() => {
-                        failure = failure.or(Some((start + k, Failure::LeftGrid)));
-                    }
-                    _ => failure = failure.or(bad.map(|b| (start + k, b))),
-                }
-            }
-            let cells = cell.first().zip(cell.last()).map(|(&first, &last)| {
-                // Without a crossing the block keeps its (sorted) cells.
-                let sorted = crossings == 0 || cell.windows(2).all(|w| w[0] <= w[1]);
-                (first, last, sorted)
-            });
-            (crossings, failure, energies, cells)
-        })
-        .collect();
-    // Blocks in particle order: the first failure is the lowest index.
-    let crossings = blocks.iter().map(|b| b.0).sum();
-    let failure = blocks.iter().find_map(|b| b.1);
-    let energies: Vec<[f64; 2]> = blocks.iter().map(|b| b.2).collect();
-    let [kinetic, strain] = sum_block_partials(&energies);
-    let ranges: Vec<(usize, usize, bool)> = blocks.iter().filter_map(|b| b.3).collect();
-    let sorted_by_cell = ranges.iter().all(|r| r.2) && ranges.windows(2).all(|w| w[0].1 <= w[1].0);
-    UpdateOutcome {
-        crossings,
-        failure,
-        energies: (kinetic, strain),
-        sorted_by_cell,
-    }
-}
-
 /// Object-safe view of a [`Stepper`]: the time loop dispatches once per step through this
 /// trait, the kernels inside are monomorphised for the basis and mapping.
 pub trait TimeStepper: Send {
@@ -826,6 +647,12 @@ pub trait TimeStepper: Send {
     fn solver_totals(&self) -> SolverTotals;
     /// Remedies of the reconstruction so far.
     fn remedies(&self) -> RemedyCounts;
+    /// Let the particle update map the next step's shapes, mass and internal force where
+    /// the method allows it (`true`, the default), or keep the plain passes (`false`).
+    /// The particles are bitwise the same either way. Default: nothing to switch.
+    fn set_map_ahead(&mut self, on: bool) {
+        let _ = on;
+    }
 }
 
 impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
@@ -865,5 +692,11 @@ impl<B: Basis, M: Mapping> TimeStepper for Stepper<B, M> {
     }
     fn remedies(&self) -> RemedyCounts {
         self.mapping.remedies()
+    }
+    fn set_map_ahead(&mut self, on: bool) {
+        self.map_ahead = on;
+        if !on {
+            self.mapped_ahead = false;
+        }
     }
 }

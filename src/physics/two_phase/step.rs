@@ -39,9 +39,10 @@ use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, LiquidFields, Particles};
 use crate::physics::step::{
-    at_step, copy_into, phase_momentum_error, quadrature, sync_view, update_particles_with,
-    update_velocities, StepReport, TimeStepper, PARTICLES_PER_TASK,
+    at_step, copy_into, phase_momentum_error, quadrature, sync_view, update_velocities, StepReport,
+    TimeStepper, PARTICLES_PER_TASK,
 };
+use crate::physics::update::update_particles_with;
 use crate::physics::{Body, Boundary, MassSystem, SolverTotals};
 use rayon::prelude::*;
 
@@ -423,6 +424,7 @@ impl<B: Basis, M: Mapping> TwoPhaseStepper<B, M> {
             crossings: outcome.crossings,
             // The liquid's energies are not part of the solid update.
             energies: None,
+            mapped_ahead: false,
         })
     }
 
