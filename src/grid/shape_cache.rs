@@ -8,7 +8,9 @@
 //! GIMP, CPDI) a step fills a [`ShapeCache`] once and the passes take their shapes from it
 //! through the [`ShapeSource`] plug point; for the linear hat, recomputing is cheaper than
 //! the memory traffic, and the passes evaluate ([`Evaluate`]). Both sources give the same
-//! values bit for bit (the cache stores what the evaluation returned).
+//! values bit for bit (the cache stores what the evaluation returned). With the direct
+//! mapping the particle update refills each slot with the particle's next shape
+//! ([`CacheSlots`], [`crate::mapping::next`]), so the next step does not fill the cache.
 //!
 //! Memory: `W` values and `W` gradients per particle, `W = Basis::max_window()`, plus the
 //! first DOF and the support size: `16 W + 9` bytes per particle (57 B for quadratic

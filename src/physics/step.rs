@@ -16,8 +16,10 @@
 //! then the particles are re-binned (a scan of the cell boundaries while they stay in cell
 //! order, else the counting sort) and grid crossings counted. The basis is evaluated at
 //! the particles once per step when that pays ([`Basis::reuse_shapes`], a
-//! [`ShapeCache`] read by every pass at the same positions), and the particle loops are
-//! compiled for the basis' fixed support. The
+//! [`ShapeCache`] read by every pass at the same positions; with the direct mapping the
+//! previous step's particle update fills it and maps step 1's `m_i` and `f_int_i` on the
+//! way, [`crate::mapping::next`]), and the particle loops are compiled for the basis'
+//! fixed support. The
 //! conservation errors of the mapping are measured each step (SPEC §6): mass
 //! `|sum_i m_i - sum_p m_p| / sum_p m_p` after step 1; momentum, with
 //! `scale = sum_p m_p |v_p|`, the larger of the mapping error `|sum_i p_i - sum_p m_p v_p|`
