@@ -305,7 +305,11 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
             && !self.basis.depends_on_particles()
             && fields.consistent_mass.is_none();
         let next = match (self.mapping.next_mass_and_force(), self.shapes.as_mut()) {
-            (Some(next), Some(cache)) if ahead => Some((next, cache)),
+            // The cache holds this step's shapes of these particles (filled above or by the
+            // last update).
+            (Some(next), Some(cache)) if ahead && cache.len() == particles.len() => {
+                Some((next, cache))
+            }
             _ => None,
         };
         let mapping_next = next.is_some();
