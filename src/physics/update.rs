@@ -32,6 +32,10 @@ const MAPPED_BLOCK: usize = 64;
 /// Where a particle-update task takes each particle's current shape from, and what it
 /// does with the particle's new state (monomorphised per kind: no dispatch per particle).
 pub(crate) trait TaskShapes<B: Basis>: Send {
+    /// Whether [`TaskShapes::moved`] does anything (else the update skips the loop that
+    /// hands the new states on, bounds checks included).
+    const USES_MOVED: bool;
+
     /// `(phi^T v, dphi^T v)` at the task's particle `k` (particle `p` overall) at `x` in
     /// `cell` with domain half-length `half_length`, from its current shape of support
     /// `N`, against the grid velocities `velocity`; the gradient only when `gradient` (else
@@ -82,6 +86,8 @@ impl<S> Clone for FromSource<'_, S> {
 impl<S> Copy for FromSource<'_, S> {}
 
 impl<B: Basis, S: ShapeSource> TaskShapes<B> for FromSource<'_, S> {
+    const USES_MOVED: bool = false;
+
     #[inline(always)]
     fn velocity_at<const N: usize>(
         &self,
@@ -125,6 +131,8 @@ impl<B: Basis, S: ShapeSource> TaskShapes<B> for FromSource<'_, S> {
 
 /// Shapes from the task's cache slots, the next step's mapped on the way.
 impl<B: Basis> TaskShapes<B> for NextTask<'_> {
+    const USES_MOVED: bool = true;
+
     /// Straight from the slot (no copy of the shape through memory).
     #[inline(always)]
     fn velocity_at<const N: usize>(
@@ -429,7 +437,7 @@ impl<B: Basis> Kinematics<'_, B> {
                         // independent evaluations that overlap, not the tail of each particle's
                         // chain of dependent updates. After a failure the step fails and nothing
                         // handed on is used.
-                        if failure.is_none() {
+                        if T::USES_MOVED && failure.is_none() {
                             for k in block {
                                 let (mass, stress) = (mass[start + k], stress[k]);
                                 task.moved::<N>(
