@@ -189,8 +189,9 @@ impl ShapeCache {
 }
 
 /// The shape slots of a run of consecutive particles of a [`ShapeCache`], indexed from 0:
-/// read a particle's shape ([`CacheSlots::load`]) and store a new one in its place
-/// ([`CacheSlots::store`]), with the `N` the cache is filled with (or `N = 0`).
+/// contract a particle's shape with a grid field ([`CacheSlots::dots`]) and store a new
+/// one in its place ([`CacheSlots::store`]), with the `N` the cache is filled with (or
+/// `N = 0`).
 pub struct CacheSlots<'a> {
     width: usize,
     first: &'a mut [usize],
@@ -200,14 +201,6 @@ pub struct CacheSlots<'a> {
 }
 
 impl CacheSlots<'_> {
-    /// The shape stored in slot `k`.
-    #[inline(always)]
-    pub fn load<const N: usize>(&self, k: usize, shape: &mut Shape) {
-        load_slot::<N>(
-            self.width, self.first, self.len, self.phi, self.dphi, k, shape,
-        );
-    }
-
     /// `(phi^T g, dphi^T g)` of the shape in slot `k` against the grid field `g` (the
     /// gradient only when `gradient`, else 0), read straight from the slot: bitwise
     /// [`Shape::interpolate_n`] and [`Shape::gradient_n`] of the loaded shape.
@@ -242,37 +235,6 @@ impl CacheSlots<'_> {
     }
 }
 
-/// Slot `p` of the cache arrays into `shape` (see [`ShapeCache::shape_of`]).
-#[inline(always)]
-fn load_slot<const N: usize>(
-    width: usize,
-    first: &[usize],
-    len: &[u8],
-    phi: &[f64],
-    dphi: &[f64],
-    p: usize,
-    shape: &mut Shape,
-) {
-    debug_assert!(
-        N == 0 || N == width,
-        "read with the support it was filled with"
-    );
-    shape.first = first[p];
-    if N == 0 {
-        let support = usize::from(len[p]);
-        let slots = p * width..p * width + support;
-        shape.len = support;
-        shape.phi[..support].copy_from_slice(&phi[slots.clone()]);
-        shape.dphi[..support].copy_from_slice(&dphi[slots]);
-    } else {
-        // Filled with the same `N`: `width == N` (see `fill_n`).
-        let slots = p * N..p * N + N;
-        shape.len = N;
-        shape.phi[..N].copy_from_slice(&phi[slots.clone()]);
-        shape.dphi[..N].copy_from_slice(&dphi[slots]);
-    }
-}
-
 impl ShapeSource for ShapeCache {
     #[inline(always)]
     fn shape_of<B: Basis, const N: usize>(
@@ -284,15 +246,24 @@ impl ShapeSource for ShapeCache {
         _half_length: f64,
         shape: &mut Shape,
     ) {
-        load_slot::<N>(
-            self.width,
-            &self.first,
-            &self.len,
-            &self.phi,
-            &self.dphi,
-            p,
-            shape,
+        debug_assert!(
+            N == 0 || N == self.width,
+            "read with the support it was filled with"
         );
+        shape.first = self.first[p];
+        if N == 0 {
+            let support = usize::from(self.len[p]);
+            let slots = p * self.width..p * self.width + support;
+            shape.len = support;
+            shape.phi[..support].copy_from_slice(&self.phi[slots.clone()]);
+            shape.dphi[..support].copy_from_slice(&self.dphi[slots]);
+        } else {
+            // Filled with the same `N`: `width == N` (see `fill_n`).
+            let slots = p * N..p * N + N;
+            shape.len = N;
+            shape.phi[..N].copy_from_slice(&self.phi[slots.clone()]);
+            shape.dphi[..N].copy_from_slice(&self.dphi[slots]);
+        }
     }
 }
 
