@@ -10,9 +10,12 @@
 //! matrix, when asked for, is `M^C_ij = sum_p m_p phi_i(x_p) phi_j(x_p)`.
 
 use super::next::NextMassForce;
-use super::points::{map_mass_and_force, map_momentum, ParticlePoints};
+use super::points::{
+    map_mass_and_force, map_momentum, update_velocities_and_map_momentum, ParticlePoints,
+};
 use super::{CellScatter, GridFields, Mapping};
-use crate::grid::{Basis, ShapeCache};
+use crate::grid::shape_cache::with_shape_source;
+use crate::grid::{Basis, Evaluate, ShapeCache};
 use crate::particles::{CellBins, Particles};
 
 /// Standard MPM mapping by particle quadrature.
@@ -71,6 +74,21 @@ impl Mapping for DirectMapping {
     ) {
         let points = ParticlePoints::with_source(particles, bins, shapes);
         map_momentum(&mut self.scatter, basis, &points, particles, bins, grid);
+    }
+
+    fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &mut Particles,
+        bins: &CellBins,
+        dt: f64,
+        grid: &mut GridFields,
+        shapes: Option<&ShapeCache>,
+    ) -> Option<[f64; 2]> {
+        let scatter = &mut self.scatter;
+        Some(with_shape_source!(shapes, Evaluate, source => {
+            update_velocities_and_map_momentum(scatter, basis, source, particles, bins, dt, grid)
+        }))
     }
 
     fn next_mass_and_force(&mut self) -> Option<&mut NextMassForce> {

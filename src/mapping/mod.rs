@@ -222,6 +222,27 @@ pub trait Mapping: Send {
         false
     }
 
+    /// MUSL steps 3–4 in one pass, for a mapping whose momentum is the direct particle sum
+    /// `p_i = sum_p m_p v_p phi_i(x_p)` and whose particle acceleration is
+    /// `sum_i phi_i(x_p) a_i`: `v_p += dt phi^T a` from `grid.acceleration`, then
+    /// `grid.momentum` from the updated velocities, with the step's `shapes` when there are
+    /// ([`points::update_velocities_and_map_momentum`]). Returns `[sum_p m_p v_p, sum_p m_p
+    /// |v_p|]` of the updated velocities, or `None` (the default) when the mapping does not
+    /// fuse the two, leaving everything alone: the stepper then updates the velocities and
+    /// calls [`Mapping::map_momentum`].
+    #[allow(clippy::too_many_arguments)]
+    fn update_velocities_and_map_momentum<B: Basis>(
+        &mut self,
+        _basis: &B,
+        _particles: &mut Particles,
+        _bins: &CellBins,
+        _dt: f64,
+        _grid: &mut GridFields,
+        _shapes: Option<&ShapeCache>,
+    ) -> Option<[f64; 2]> {
+        None
+    }
+
     /// The sums of the next step's mass and internal force, lent to the particle update so
     /// that it maps them on the way ([`next`]); `None` (the default) for a mapping whose
     /// mass and force are not the direct particle sums at the particles' shapes.

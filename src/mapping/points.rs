@@ -20,6 +20,7 @@ use super::scatter::{add_outer, Local};
 use super::{CellScatter, GridFields};
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, Evaluate, Shape, ShapeSource};
+use crate::numerics::sum::deterministic_sums;
 use crate::particles::{CellBins, Particles};
 
 /// Quadrature points of a particle mapping, found cell by cell.
@@ -212,4 +213,165 @@ fn scatter_momentum<B: Basis, P: PointSet, const N: usize>(
             });
         },
     );
+}
+
+/// MUSL steps 3–4 of the particles themselves in one pass (`docs/performance.md`, "1D: the
+/// MUSL velocity update and momentum map in one pass"), the shapes from `source`:
+///
+/// ```text
+/// v_p += dt sum_i phi_i(x_p) a_i,     then     p_i = sum_p m_p v_p phi_i(x_p)
+/// ```
+/// cell by cell, each particle's velocity updated just before it is mapped. Every
+/// velocity and every `p_i` is bitwise what the velocity pass followed by
+/// [`map_momentum`] gives: the same shape per particle, the same particles per cell in the
+/// same order, the same reduction. Returns `[sum_p m_p v_p, sum_p m_p |v_p|]` of the
+/// updated velocities ([`deterministic_sums`], as the separate velocity pass sums them).
+pub fn update_velocities_and_map_momentum<B: Basis, S: ShapeSource>(
+    scatter: &mut CellScatter,
+    basis: &B,
+    source: &S,
+    particles: &mut Particles,
+    bins: &CellBins,
+    dt: f64,
+    grid: &mut GridFields,
+) -> [f64; 2] {
+    with_fixed_support!(basis, N => velocities_and_momentum::<B, S, N>(
+        scatter, basis, source, particles, bins, dt, grid
+    ))
+}
+
+/// [`update_velocities_and_map_momentum`] with loops compiled for `N` functions per
+/// particle.
+fn velocities_and_momentum<B: Basis, S: ShapeSource, const N: usize>(
+    scatter: &mut CellScatter,
+    basis: &B,
+    source: &S,
+    particles: &mut Particles,
+    bins: &CellBins,
+    dt: f64,
+    grid: &mut GridFields,
+) -> [f64; 2] {
+    // The particles' own weight, as `ParticlePoints` gives it to `scatter_momentum`.
+    let w = 1.0;
+    let Particles {
+        x, volume, mass, v, ..
+    } = particles;
+    let (x, volume, mass) = (&x[..], &volume[..], &mass[..]);
+    let GridFields {
+        acceleration,
+        momentum,
+        ..
+    } = grid;
+    let acceleration = &acceleration[..];
+    scatter.scatter_updating(
+        basis,
+        bins,
+        v,
+        [&mut momentum[..]],
+        |cell, first, cell_particles, velocity, [p_local]| {
+            let mut shape = Shape::default();
+            for (p, v) in cell_particles.zip(velocity.iter_mut()) {
+                source.shape_of::<B, N>(basis, p, cell, x[p], 0.5 * (volume[p] * w), &mut shape);
+                *v += dt * shape.interpolate_n::<N>(acceleration);
+                let offset = shape.first - first;
+                let mv = mass[p] * w * *v;
+                for k in 0..shape.support::<N>() {
+                    p_local[offset + k] += mv * shape.phi[k];
+                }
+            }
+        },
+    );
+    deterministic_sums(mass.len(), |p| [mass[p] * v[p], mass[p] * v[p].abs()])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{BSplineBasis, CpdiBasis, GimpBasis, Grid, LinearBasis, ShapeCache};
+    use crate::mapping::{DirectMapping, Mapping};
+    use proptest::prelude::*;
+
+    /// The fused pass against the velocity update followed by the momentum map, both with
+    /// evaluated shapes and with the shapes read from a cache: velocities, `p_i` and the
+    /// momentum sums bit for bit.
+    fn check<B: Basis>(basis: &B, particles: &Particles, bins: &CellBins, acceleration: &[f64]) {
+        let dt = 1.7e-3;
+        let mut two_passes = particles.clone();
+        with_fixed_support!(basis, N => {
+            let mut shape = Shape::default();
+            for p in 0..two_passes.len() {
+                let (cell, x) = (two_passes.cell[p], two_passes.x[p]);
+                let half_length = 0.5 * two_passes.volume[p];
+                Evaluate.shape_of::<B, N>(basis, p, cell, x, half_length, &mut shape);
+                two_passes.v[p] += dt * shape.interpolate_n::<N>(acceleration);
+            }
+        });
+        let mut expected = GridFields::new(basis.num_dofs());
+        DirectMapping::default().map_momentum(basis, &two_passes, bins, &mut expected);
+        let (mass, v) = (&two_passes.mass, &two_passes.v);
+        let expected_sums =
+            deterministic_sums(mass.len(), |p| [mass[p] * v[p], mass[p] * v[p].abs()]);
+        let mut cache = ShapeCache::default();
+        cache.fill(basis, &particles.x, &particles.cell, &particles.volume);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for shapes in [None, Some(&cache)] {
+            let mut fused = particles.clone();
+            let mut fields = GridFields::new(basis.num_dofs());
+            fields.acceleration.copy_from_slice(acceleration);
+            fields.momentum.fill(f64::NAN);
+            let sums = DirectMapping::default()
+                .update_velocities_and_map_momentum(
+                    basis,
+                    &mut fused,
+                    bins,
+                    dt,
+                    &mut fields,
+                    shapes,
+                )
+                .unwrap();
+            assert_eq!(bits(&fused.v), bits(&two_passes.v));
+            assert_eq!(bits(&fields.momentum), bits(&expected.momentum));
+            assert_eq!(bits(&sums), bits(&expected_sums));
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        /// Several groups of cells (up to 300 cells, groups of 64), empty cells, cells
+        /// with many particles, every fixed-support basis.
+        #[test]
+        fn the_fused_musl_pass_is_the_two_passes_bit_for_bit(
+            cells in 3usize..300,
+            t in proptest::collection::vec(0.0f64..=1.0, 1..900),
+            order in 2usize..5,
+        ) {
+            let grid = Grid::new(2.0, cells);
+            let mut particles = Particles::at_subcell_centres(&grid, 1, 3.0);
+            let n = t.len();
+            particles.x = t.iter().map(|t| t * grid.length).collect();
+            particles.cell = particles.x.iter().map(|&x| grid.cell_of(x).unwrap()).collect();
+            particles.volume = (0..n).map(|p| grid.h * (0.1 + 0.8 * t[p])).collect();
+            particles.mass = (0..n).map(|p| 1.0 + (p as f64 * 0.37).sin().abs()).collect();
+            particles.v = (0..n).map(|p| (p as f64 * 0.91).cos()).collect();
+            for field in [&mut particles.stress, &mut particles.u, &mut particles.density] {
+                field.resize(n, 0.0);
+            }
+            particles.deformation_gradient.resize(n, 1.0);
+            particles.x0.resize(n, 0.0);
+            particles.id = (0..n).collect();
+            let mut bins = CellBins::default();
+            bins.sort(&mut particles, cells);
+            let acceleration = |dofs: usize| -> Vec<f64> {
+                (0..dofs).map(|i| (i as f64 * 1.7).sin() * 50.0).collect()
+            };
+            let linear = LinearBasis::new(grid);
+            check(&linear, &particles, &bins, &acceleration(linear.num_dofs()));
+            let bspline = BSplineBasis::new(grid, order).unwrap();
+            check(&bspline, &particles, &bins, &acceleration(bspline.num_dofs()));
+            let cpdi = CpdiBasis::new(grid);
+            check(&cpdi, &particles, &bins, &acceleration(cpdi.num_dofs()));
+            let gimp = GimpBasis::new(grid);
+            check(&gimp, &particles, &bins, &acceleration(gimp.num_dofs()));
+        }
+    }
 }

@@ -64,7 +64,7 @@ impl CellScatter {
         &mut self,
         basis: &B,
         cells: usize,
-        mut outputs: [&mut [f64]; F],
+        outputs: [&mut [f64]; F],
         kernel: K,
     ) where
         B: Basis,
@@ -79,10 +79,78 @@ impl CellScatter {
                 out.copy_from_slice(&row[..width]);
             }
         });
+        self.reduce_into(basis, width, outputs);
+    }
+
+    /// [`CellScatter::scatter`] that also updates a per-particle field of the particles it
+    /// maps: `kernel(cell, window_first, particles, values, local)` gets the cell's particle
+    /// range `particles` (`bins.range(cell)`, particles stored in cell order) and `values`,
+    /// the part of `field` at those particles, to change before it maps them. Cells are
+    /// filled in fixed groups of [`CELLS_PER_TASK`], each cell's local buffer and the
+    /// reduction exactly as in [`CellScatter::scatter`]: the same sums, bit for bit.
+    pub fn scatter_updating<B, K, const F: usize>(
+        &mut self,
+        basis: &B,
+        bins: &CellBins,
+        field: &mut [f64],
+        outputs: [&mut [f64]; F],
+        kernel: K,
+    ) where
+        B: Basis,
+        K: Fn(usize, usize, std::ops::Range<usize>, &mut [f64], &mut Local<F>) + Sync,
+    {
+        let cells = bins.cells();
+        let width = basis.max_window();
+        let stride = F * width;
+        self.buffer.clear();
+        self.buffer.resize(cells * stride, 0.0);
+        // The field cut at the first particle of each group of cells.
+        let mut groups = Vec::with_capacity(cells.div_ceil(CELLS_PER_TASK));
+        let mut rest = field;
+        let mut start = 0;
+        for group_start in (0..cells).step_by(CELLS_PER_TASK) {
+            let end = bins.cell_start[(group_start + CELLS_PER_TASK).min(cells)];
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(end - start);
+            groups.push((start, head));
+            (rest, start) = (tail, end);
+        }
+        self.buffer
+            .par_chunks_mut(CELLS_PER_TASK * stride)
+            .zip(groups)
+            .enumerate()
+            .for_each(|(group, (buffer, (group_first, values)))| {
+                for (c, chunk) in buffer.chunks_exact_mut(stride).enumerate() {
+                    let cell = group * CELLS_PER_TASK + c;
+                    let particles = bins.range(cell);
+                    let own = particles.start - group_first..particles.end - group_first;
+                    let mut local = [[0.0; MAX_SUPPORT]; F];
+                    kernel(
+                        cell,
+                        basis.cell_window(cell).0,
+                        particles,
+                        &mut values[own],
+                        &mut local,
+                    );
+                    for (row, out) in local.iter().zip(chunk.chunks_exact_mut(width)) {
+                        out.copy_from_slice(&row[..width]);
+                    }
+                }
+            });
+        self.reduce_into(basis, width, outputs);
+    }
+
+    /// Write the sum of the cells' buffers (chunks of `F x width`) into `outputs`, cell by
+    /// cell in increasing order.
+    fn reduce_into<B: Basis, const F: usize>(
+        &self,
+        basis: &B,
+        width: usize,
+        mut outputs: [&mut [f64]; F],
+    ) {
         for out in outputs.iter_mut() {
             out.fill(0.0);
         }
-        for (cell, chunk) in self.buffer.chunks_exact(stride).enumerate() {
+        for (cell, chunk) in self.buffer.chunks_exact(F * width).enumerate() {
             let (first, len) = basis.cell_window(cell);
             for (out, local) in outputs.iter_mut().zip(chunk.chunks_exact(width)) {
                 for (o, l) in out[first..first + len].iter_mut().zip(&local[..len]) {

@@ -247,24 +247,39 @@ impl<B: Basis, M: Mapping> Stepper<B, M> {
         // 3.-4. Particle velocities (and, for MUSL, the momentum they carry), grid velocities.
         let momentum_error = match self.scheme {
             Scheme::Musl => {
-                let sums = update_particle_velocities(
-                    &mut self.mapping,
-                    &self.basis,
-                    shapes,
-                    particles,
-                    &fields.acceleration,
-                    &mut self.particle_acceleration,
-                    dt,
-                    MomentumOf::Updated,
-                );
-                map_momentum(
-                    &mut self.mapping,
+                // One pass where the mapping fuses the two (bitwise the same), else two.
+                let fused = self.mapping.update_velocities_and_map_momentum(
                     &self.basis,
                     particles,
                     &self.bins,
+                    dt,
                     fields,
                     shapes,
                 );
+                let sums = match fused {
+                    Some(sums) => sums,
+                    None => {
+                        let sums = update_particle_velocities(
+                            &mut self.mapping,
+                            &self.basis,
+                            shapes,
+                            particles,
+                            &fields.acceleration,
+                            &mut self.particle_acceleration,
+                            dt,
+                            MomentumOf::Updated,
+                        );
+                        map_momentum(
+                            &mut self.mapping,
+                            &self.basis,
+                            particles,
+                            &self.bins,
+                            fields,
+                            shapes,
+                        );
+                        sums
+                    }
+                };
                 let imbalance = self
                     .mass
                     .velocities(fields, 0.0)
