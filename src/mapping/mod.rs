@@ -26,6 +26,8 @@ pub mod tensor_mass;
 pub mod tensor_next;
 pub mod tensor_scatter;
 pub mod tensor_tls;
+#[cfg(test)]
+pub(crate) mod test_layouts;
 pub mod tls;
 
 pub use cubic_spline::CubicSplineMapping;

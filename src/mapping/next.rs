@@ -224,6 +224,7 @@ mod tests {
     use super::*;
     use crate::grid::tensor::with_fixed_support;
     use crate::grid::{BSplineBasis, CpdiBasis, GimpBasis, Grid};
+    use crate::mapping::test_layouts::scattered_particles;
     use crate::mapping::{DirectMapping, GridFields, Mapping};
     use proptest::prelude::*;
 
@@ -278,21 +279,7 @@ mod tests {
             order in 1usize..5,
         ) {
             let grid = Grid::new(2.0, cells);
-            let mut particles = Particles::at_subcell_centres(&grid, 1, 3.0);
-            let n = t.len();
-            particles.x = t.iter().map(|t| t * grid.length).collect();
-            particles.cell = particles.x.iter().map(|&x| grid.cell_of(x).unwrap()).collect();
-            particles.volume = (0..n).map(|p| grid.h * (0.1 + 0.8 * t[p])).collect();
-            particles.mass = (0..n).map(|p| 1.0 + (p as f64 * 0.37).sin().abs()).collect();
-            particles.stress = (0..n).map(|p| (p as f64 * 1.3).cos() * 1e3).collect();
-            for field in [&mut particles.v, &mut particles.u, &mut particles.density] {
-                field.resize(n, 0.0);
-            }
-            particles.deformation_gradient.resize(n, 1.0);
-            particles.x0.resize(n, 0.0);
-            particles.id = (0..n).collect();
-            let mut bins = CellBins::default();
-            bins.sort(&mut particles, cells);
+            let (particles, bins) = scattered_particles(&grid, &t);
             check(&BSplineBasis::new(grid, order).unwrap(), &particles, &bins, per_task);
             check(&CpdiBasis::new(grid), &particles, &bins, per_task);
             check(&GimpBasis::new(grid), &particles, &bins, per_task);

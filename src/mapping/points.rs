@@ -288,6 +288,7 @@ fn velocities_and_momentum<B: Basis, S: ShapeSource, const N: usize>(
 mod tests {
     use super::*;
     use crate::grid::{BSplineBasis, CpdiBasis, GimpBasis, Grid, LinearBasis, ShapeCache};
+    use crate::mapping::test_layouts::scattered_particles;
     use crate::mapping::{DirectMapping, Mapping};
     use proptest::prelude::*;
 
@@ -346,21 +347,7 @@ mod tests {
             order in 2usize..5,
         ) {
             let grid = Grid::new(2.0, cells);
-            let mut particles = Particles::at_subcell_centres(&grid, 1, 3.0);
-            let n = t.len();
-            particles.x = t.iter().map(|t| t * grid.length).collect();
-            particles.cell = particles.x.iter().map(|&x| grid.cell_of(x).unwrap()).collect();
-            particles.volume = (0..n).map(|p| grid.h * (0.1 + 0.8 * t[p])).collect();
-            particles.mass = (0..n).map(|p| 1.0 + (p as f64 * 0.37).sin().abs()).collect();
-            particles.v = (0..n).map(|p| (p as f64 * 0.91).cos()).collect();
-            for field in [&mut particles.stress, &mut particles.u, &mut particles.density] {
-                field.resize(n, 0.0);
-            }
-            particles.deformation_gradient.resize(n, 1.0);
-            particles.x0.resize(n, 0.0);
-            particles.id = (0..n).collect();
-            let mut bins = CellBins::default();
-            bins.sort(&mut particles, cells);
+            let (particles, bins) = scattered_particles(&grid, &t);
             let acceleration = |dofs: usize| -> Vec<f64> {
                 (0..dofs).map(|i| (i as f64 * 1.7).sin() * 50.0).collect()
             };
