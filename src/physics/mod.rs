@@ -13,6 +13,7 @@ pub mod step;
 pub mod tensor;
 pub mod two_phase;
 pub(crate) mod update;
+pub(crate) mod velocity;
 
 pub use body::{Body, BodySource};
 pub use boundary::Boundary;

@@ -39,10 +39,11 @@ use crate::mapping::{GridFields, Mapping, RemedyCounts};
 use crate::numerics::sum::{deterministic_sum, deterministic_sums};
 use crate::particles::{CellBins, LiquidFields, Particles};
 use crate::physics::step::{
-    at_step, copy_into, phase_momentum_error, quadrature, sync_view, update_velocities, StepReport,
-    TimeStepper, PARTICLES_PER_TASK,
+    at_step, copy_into, phase_momentum_error, quadrature, sync_view, StepReport, TimeStepper,
+    PARTICLES_PER_TASK,
 };
 use crate::physics::update::update_particles_with;
+use crate::physics::velocity::update_velocities;
 use crate::physics::{Body, Boundary, MassSystem, SolverTotals};
 use rayon::prelude::*;
 
