@@ -172,6 +172,22 @@ pub(crate) fn add_mass_and_force<const N: usize>(
     }
 }
 
+/// Add a point of momentum `mv` with shape `shape` (support `N`, or `shape.len` when
+/// `N = 0`) to a cell's local momentum, `offset = shape.first - window_first`:
+/// `p_k += mv phi_k`. The one accumulation of the momentum map, here and in the fused MUSL
+/// pass ([`update_velocities_and_map_momentum`]), so both sum the same bits.
+#[inline(always)]
+fn add_momentum<const N: usize>(
+    p_local: &mut [f64; crate::grid::MAX_SUPPORT],
+    offset: usize,
+    shape: &Shape,
+    mv: f64,
+) {
+    for k in 0..shape.support::<N>() {
+        p_local[offset + k] += mv * shape.phi[k];
+    }
+}
+
 /// `p` by quadrature at `points` from the current particle velocities.
 pub fn map_momentum<B: Basis, P: PointSet>(
     scatter: &mut CellScatter,
@@ -205,11 +221,7 @@ fn scatter_momentum<B: Basis, P: PointSet, const N: usize>(
             let mut shape = Shape::default();
             points.for_each_in(cell, |p, x| {
                 points.shape_at::<B, N>(basis, p, cell, x, 0.5 * (volume[p] * w), &mut shape);
-                let offset = shape.first - first;
-                let mv = mass[p] * w * v[p];
-                for k in 0..shape.support::<N>() {
-                    p_local[offset + k] += mv * shape.phi[k];
-                }
+                add_momentum::<N>(p_local, shape.first - first, &shape, mass[p] * w * v[p]);
             });
         },
     );
@@ -273,11 +285,7 @@ fn velocities_and_momentum<B: Basis, S: ShapeSource, const N: usize>(
             for (p, v) in cell_particles.zip(velocity.iter_mut()) {
                 source.shape_of::<B, N>(basis, p, cell, x[p], 0.5 * (volume[p] * w), &mut shape);
                 *v += dt * shape.interpolate_n::<N>(acceleration);
-                let offset = shape.first - first;
-                let mv = mass[p] * w * *v;
-                for k in 0..shape.support::<N>() {
-                    p_local[offset + k] += mv * shape.phi[k];
-                }
+                add_momentum::<N>(p_local, shape.first - first, &shape, mass[p] * w * *v);
             }
         },
     );
