@@ -207,19 +207,18 @@ impl CacheSlots<'_> {
     #[inline(always)]
     pub fn dots<const N: usize>(&self, k: usize, g: &[f64], gradient: bool) -> (f64, f64) {
         let first = self.first[k];
-        let (slots, n) = if N == 0 {
-            let n = usize::from(self.len[k]);
-            (k * self.width..k * self.width + n, n)
+        // `[at..][..n]` rather than `[at..at + n]`: with `n = N` the slices then have a
+        // length known at compile time and the dots unroll (same sums, same order).
+        let (phi, dphi) = if N == 0 {
+            let (at, n) = (k * self.width, usize::from(self.len[k]));
+            (&self.phi[at..][..n], &self.dphi[at..][..n])
         } else {
-            (k * N..k * N + N, N)
+            debug_assert_eq!(N, self.width, "read with the support it was filled with");
+            (&self.phi[k * N..][..N], &self.dphi[k * N..][..N])
         };
-        let g = &g[first..first + n];
-        let interpolated = shape_dot(&self.phi[slots.clone()], g);
-        let slope = if gradient {
-            shape_dot(&self.dphi[slots], g)
-        } else {
-            0.0
-        };
+        let g = &g[first..][..phi.len()];
+        let interpolated = shape_dot(phi, g);
+        let slope = if gradient { shape_dot(dphi, g) } else { 0.0 };
         (interpolated, slope)
     }
 
@@ -229,9 +228,14 @@ impl CacheSlots<'_> {
         let support = shape.support::<N>();
         self.first[k] = shape.first;
         self.len[k] = support as u8;
-        let slots = k * self.width..k * self.width + support;
-        self.phi[slots.clone()].copy_from_slice(&shape.phi[..support]);
-        self.dphi[slots].copy_from_slice(&shape.dphi[..support]);
+        let at = if N == 0 {
+            k * self.width
+        } else {
+            debug_assert_eq!(N, self.width, "stored with the support it was filled with");
+            k * N
+        };
+        self.phi[at..][..support].copy_from_slice(&shape.phi[..support]);
+        self.dphi[at..][..support].copy_from_slice(&shape.dphi[..support]);
     }
 }
 
@@ -259,10 +263,9 @@ impl ShapeSource for ShapeCache {
             shape.dphi[..support].copy_from_slice(&self.dphi[slots]);
         } else {
             // Filled with the same `N`: `width == N` (see `fill_n`).
-            let slots = p * N..p * N + N;
             shape.len = N;
-            shape.phi[..N].copy_from_slice(&self.phi[slots.clone()]);
-            shape.dphi[..N].copy_from_slice(&self.dphi[slots]);
+            shape.phi[..N].copy_from_slice(&self.phi[p * N..][..N]);
+            shape.dphi[..N].copy_from_slice(&self.dphi[p * N..][..N]);
         }
     }
 }

@@ -165,10 +165,13 @@ pub(crate) fn add_mass_and_force<const N: usize>(
     m: f64,
     sv: f64,
 ) {
+    let n = shape.support::<N>();
     let [m_local, f_local] = local;
-    for k in 0..shape.support::<N>() {
-        m_local[offset + k] += m * shape.phi[k];
-        f_local[offset + k] += sv * shape.dphi[k];
+    // One bounds check per slice (`[offset..][..n]`), not one per function.
+    let (m_local, f_local) = (&mut m_local[offset..][..n], &mut f_local[offset..][..n]);
+    for k in 0..n {
+        m_local[k] += m * shape.phi[k];
+        f_local[k] += sv * shape.dphi[k];
     }
 }
 
@@ -183,8 +186,10 @@ fn add_momentum<const N: usize>(
     shape: &Shape,
     mv: f64,
 ) {
-    for k in 0..shape.support::<N>() {
-        p_local[offset + k] += mv * shape.phi[k];
+    let n = shape.support::<N>();
+    let p_local = &mut p_local[offset..][..n];
+    for k in 0..n {
+        p_local[k] += mv * shape.phi[k];
     }
 }
 
