@@ -373,6 +373,11 @@ impl<B: Basis> Kinematics<'_, B> {
             .map(
                 |(chunk, ((x, u, stress, volume, density, cell, f), mut task))| {
                     let start = chunk * PARTICLES_PER_TASK;
+                    // Every field cut to the block's length: one bound for all the indexing.
+                    let n = x.len();
+                    let (u, stress, volume) = (&mut u[..n], &mut stress[..n], &mut volume[..n]);
+                    let (density, cell, f) = (&mut density[..n], &mut cell[..n], &mut f[..n]);
+                    let (v, mass) = (&v[start..][..n], &mass[start..][..n]);
                     let mut shape = Shape::default();
                     let mut crossings = 0usize;
                     let mut failure = None;
@@ -404,12 +409,12 @@ impl<B: Basis> Kinematics<'_, B> {
                             stress[k] = law.update(stress[k], deps, f[k]);
                             volume[k] *= 1.0 + deps;
                             density[k] /= 1.0 + deps;
-                            let vk = v[p];
-                            energies[0] += 0.5 * mass[p] * vk * vk;
+                            let vk = v[k];
+                            energies[0] += 0.5 * mass[k] * vk * vk;
                             energies[1] += volume[k] * law.strain_energy_density(stress[k], f[k]);
                             // A collapsed particle (F <= 0) is named as such, before the NaN stress a
                             // hyperelastic law gives it.
-                            let bad = if !v[p].is_finite() {
+                            let bad = if !v[k].is_finite() {
                                 Some(Failure::Velocity)
                             } else if f[k] <= 0.0 || volume[k] <= 0.0 {
                                 Some(Failure::Volume)
@@ -439,7 +444,7 @@ impl<B: Basis> Kinematics<'_, B> {
                         // handed on is used.
                         if T::USES_MOVED && failure.is_none() {
                             for k in block {
-                                let (mass, stress) = (mass[start + k], stress[k]);
+                                let (mass, stress) = (mass[k], stress[k]);
                                 task.moved::<N>(
                                     basis, k, cell[k], x[k], volume[k], mass, stress, &mut shape,
                                 );
