@@ -187,9 +187,8 @@ fn add_momentum<const N: usize>(
     mv: f64,
 ) {
     let n = shape.support::<N>();
-    let p_local = &mut p_local[offset..][..n];
-    for k in 0..n {
-        p_local[k] += mv * shape.phi[k];
+    for (p_k, phi) in p_local[offset..][..n].iter_mut().zip(&shape.phi[..n]) {
+        *p_k += mv * phi;
     }
 }
 
