@@ -10,7 +10,7 @@
 //! (the CPDI weights of Sadeghirad et al.; they differ from GIMP's exact averages only when
 //! a node lies inside the domain). Partition of unity and zero gradient sum hold exactly.
 
-use super::domain::{DomainBasis, DomainWeight};
+use super::domain::{DomainBasis, DomainWeight, NodeSpan};
 use super::Grid;
 
 /// The corner average of the hat.
@@ -23,7 +23,7 @@ impl DomainWeight for CpdiCorners {
     #[inline]
     fn weight(
         _grid: &Grid,
-        _node: usize,
+        _span: NodeSpan,
         _x1: f64,
         _x2: f64,
         _inv_length: f64,

@@ -14,16 +14,42 @@
 
 use super::{Basis, Grid, LinearBasis, Shape};
 
+/// The nodes around node `i`: `left = X_{i-1}`, `node = X_i`, `right = X_{i+1}` (each
+/// [`Grid::cell_left`] of its index; `left = X_0 - h` for `i = 0`), computed once per
+/// evaluation and shared by the neighbouring nodes' functions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeSpan {
+    pub left: f64,
+    pub node: f64,
+    pub right: f64,
+}
+
+impl NodeSpan {
+    /// The span of node `node` of `grid`.
+    #[inline]
+    pub fn of(grid: &Grid, node: usize) -> Self {
+        let node_x = grid.cell_left(node);
+        Self {
+            left: node
+                .checked_sub(1)
+                .map_or(node_x - grid.h, |n| grid.cell_left(n)),
+            node: node_x,
+            right: grid.cell_left(node + 1),
+        }
+    }
+}
+
 /// How a particle-domain basis turns the clipped domain `[x_1, x_2]` into the weight of
-/// node `node` (the gradient is always `(phi(x_2) - phi(x_1)) / (x_2 - x_1)`).
+/// the node with span `span` (the gradient is always `(phi(x_2) - phi(x_1)) / (x_2 - x_1)`).
 pub trait DomainWeight: Copy + Default + Send + Sync {
     /// Name as in `method.basis`.
     const NAME: &'static str;
-    /// The weight `phi_bar_node` of the domain `[x1, x2]`; `inv_length = 1 / (x2 - x1)`,
-    /// `hat1`, `hat2` are the hat values at the corners.
+    /// The weight `phi_bar` of the domain `[x1, x2]` for the node with span `span`;
+    /// `inv_length = 1 / (x2 - x1)`, `hat1`, `hat2` are the hat values at the corners.
+    #[allow(clippy::too_many_arguments)]
     fn weight(
         grid: &Grid,
-        node: usize,
+        span: NodeSpan,
         x1: f64,
         x2: f64,
         inv_length: f64,
@@ -82,20 +108,18 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
     /// zeros, so that the particle loops run over a support fixed at compile time.
     #[inline]
     fn eval_particle(&self, cell: usize, x: f64, half_length: f64, shape: &mut Shape) {
-        let Some((x1, x2)) = clipped_domain(&self.grid, x, half_length) else {
-            return self.eval_point_in_window(cell, x, shape);
-        };
-        let grid = &self.grid;
-        let (first, len) = domain_window(grid, cell);
-        let inv_length = 1.0 / (x2 - x1);
-        for k in 0..len {
-            let node = first + k;
-            let (hat1, hat2) = (hat(grid, node, x1), hat(grid, node, x2));
-            shape.phi[k] = W::weight(grid, node, x1, x2, inv_length, hat1, hat2);
-            shape.dphi[k] = hat_mean_slope(grid, node, x1, x2) * inv_length;
-        }
-        shape.first = first;
-        shape.len = len;
+        self.eval_domain::<0>(cell, x, half_length, shape);
+    }
+
+    #[inline]
+    fn eval_particle_n<const N: usize>(
+        &self,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    ) {
+        self.eval_domain::<N>(cell, x, half_length, shape);
     }
 
     fn fixed_support(&self) -> Option<usize> {
@@ -104,6 +128,50 @@ impl<W: DomainWeight> Basis for DomainBasis<W> {
 }
 
 impl<W: DomainWeight> DomainBasis<W> {
+    /// [`Basis::eval_particle`] with the window's length `N` known at compile time (`N = 0`:
+    /// from [`domain_window`]). The node positions are computed once (one conversion of a
+    /// node index each, `len + 2` in all) and shared by the hats, the weights and the slopes
+    /// of neighbouring nodes: the same values as [`NodeSpan::of`] per node, so the same bits.
+    #[inline(always)]
+    fn eval_domain<const N: usize>(
+        &self,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+    ) {
+        let Some((x1, x2)) = clipped_domain(&self.grid, x, half_length) else {
+            return self.eval_point_in_window(cell, x, shape);
+        };
+        let grid = &self.grid;
+        let (first, len) = domain_window(grid, cell);
+        let len = if N == 0 { len } else { N };
+        debug_assert_eq!(len, domain_window(grid, cell).1, "the fixed window");
+        let inv_length = 1.0 / (x2 - x1);
+        // positions[k] = X_{first + k - 1}, k = 0 ..= len + 1.
+        let mut positions = [0.0; DOMAIN_SUPPORT + 2];
+        let positions = &mut positions[..len + 2];
+        for (k, position) in positions.iter_mut().enumerate().skip(1) {
+            *position = grid.cell_left(first + k - 1);
+        }
+        positions[0] = first
+            .checked_sub(1)
+            .map_or(positions[1] - grid.h, |n| grid.cell_left(n));
+        let (phi, dphi) = (&mut shape.phi[..len], &mut shape.dphi[..len]);
+        for (k, (phi, dphi)) in phi.iter_mut().zip(dphi.iter_mut()).enumerate() {
+            let span = NodeSpan {
+                left: positions[k],
+                node: positions[k + 1],
+                right: positions[k + 2],
+            };
+            let (hat1, hat2) = (hat_at(grid, span.node, x1), hat_at(grid, span.node, x2));
+            *phi = W::weight(grid, span, x1, x2, inv_length, hat1, hat2);
+            *dphi = hat_mean_slope_of(grid, span, x1, x2) * inv_length;
+        }
+        shape.first = first;
+        shape.len = len;
+    }
+
     /// The linear hat of a (numerically) point-sized domain, placed in the cell's window
     /// with zeros on the window's other DOFs.
     #[inline]
@@ -123,18 +191,19 @@ impl<W: DomainWeight> DomainBasis<W> {
 
 /// `hat(x2) - hat(x1)` summed over the linear pieces of the hat (slope `+-1/h` times the
 /// length of each piece inside `[x1, x2]`), free of the cancellation of a difference of
-/// nearly equal values on short domains.
-#[inline]
+/// nearly equal values on short domains. (The per-node form, the reference of the tests.)
+#[cfg(test)]
 pub(crate) fn hat_mean_slope(grid: &Grid, node: usize, x1: f64, x2: f64) -> f64 {
-    // Neighbouring nodes from the same formula as in the neighbours' own evaluation, so
-    // that a shared piece has bitwise the same length for both (gradients sum to zero).
-    let node_x = grid.cell_left(node);
-    let left_x = node
-        .checked_sub(1)
-        .map_or(node_x - grid.h, |n| grid.cell_left(n));
-    let right_x = grid.cell_left(node + 1);
-    let rising = (x2.min(node_x) - x1.max(left_x)).max(0.0);
-    let falling = (x2.min(right_x) - x1.max(node_x)).max(0.0);
+    hat_mean_slope_of(grid, NodeSpan::of(grid, node), x1, x2)
+}
+
+/// [`hat_mean_slope`] of the node with span `span`. Neighbouring nodes take their positions
+/// from the same formula ([`Grid::cell_left`]), so that a shared piece has bitwise the same
+/// length for both (gradients sum to zero).
+#[inline(always)]
+pub(crate) fn hat_mean_slope_of(grid: &Grid, span: NodeSpan, x1: f64, x2: f64) -> f64 {
+    let rising = (x2.min(span.node) - x1.max(span.left)).max(0.0);
+    let falling = (x2.min(span.right) - x1.max(span.node)).max(0.0);
     (rising - falling) * grid.inv_h
 }
 
@@ -170,9 +239,15 @@ pub(crate) fn domain_window(grid: &Grid, cell: usize) -> (usize, usize) {
 }
 
 /// Hat function of node `node` at `x` (unclipped: non-zero on `[X_{node-1}, X_{node+1}]`).
-#[inline]
+#[cfg(test)]
 pub(crate) fn hat(grid: &Grid, node: usize, x: f64) -> f64 {
-    let s = (x - grid.cell_left(node)) * grid.inv_h;
+    hat_at(grid, grid.cell_left(node), x)
+}
+
+/// [`hat`] of the node at `node_x`.
+#[inline(always)]
+pub(crate) fn hat_at(grid: &Grid, node_x: f64, x: f64) -> f64 {
+    let s = (x - node_x) * grid.inv_h;
     (1.0 - s.abs()).max(0.0)
 }
 
@@ -228,5 +303,63 @@ mod tests {
         }
         assert_eq!(GimpBasis::new(grid).fixed_support(), Some(4));
         assert_eq!(CpdiBasis::new(Grid::new(1.0, 2)).fixed_support(), None);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// The evaluation over the window, with the node positions computed once, is bit
+        /// for bit the per-node formulas (each node's span from `NodeSpan::of`, its hats
+        /// and slope from its own index), for GIMP and CPDI, any cell, domain and support.
+        #[test]
+        fn window_evaluation_is_the_per_node_formula_bit_for_bit(
+            cells in 1usize..12,
+            origin in -3.0f64..3.0,
+            t in 0.0f64..=1.0,
+            l in 0.0f64..1.5,
+        ) {
+            use crate::grid::{CpdiBasis, GimpBasis};
+            use crate::grid::{cpdi::CpdiCorners, gimp::GimpAverage};
+            let mut grid = Grid::new(1.7, cells);
+            grid.origin = origin;
+            let x = origin + t * grid.length;
+            let cell = grid.cell_of(x).unwrap();
+            let half = l * grid.h;
+            fn reference<W: DomainWeight>(grid: &Grid, cell: usize, x1: f64, x2: f64) -> Shape {
+                let mut s = Shape::default();
+                let (first, len) = domain_window(grid, cell);
+                let inv_length = 1.0 / (x2 - x1);
+                for k in 0..len {
+                    let node = first + k;
+                    let span = NodeSpan::of(grid, node);
+                    let (hat1, hat2) = (hat(grid, node, x1), hat(grid, node, x2));
+                    s.phi[k] = W::weight(grid, span, x1, x2, inv_length, hat1, hat2);
+                    s.dphi[k] = hat_mean_slope(grid, node, x1, x2) * inv_length;
+                }
+                s.first = first;
+                s.len = len;
+                s
+            }
+            let Some((x1, x2)) = clipped_domain(&grid, x, half) else {
+                return Ok(());
+            };
+            let bits = |s: &Shape| -> Vec<u64> {
+                s.phi[..s.len].iter().chain(&s.dphi[..s.len]).map(|v| v.to_bits()).collect()
+            };
+            let (mut gimp, mut cpdi) = (Shape::default(), Shape::default());
+            GimpBasis::new(grid).eval_particle(cell, x, half, &mut gimp);
+            CpdiBasis::new(grid).eval_particle(cell, x, half, &mut cpdi);
+            let (gimp_ref, cpdi_ref) = (
+                reference::<GimpAverage>(&grid, cell, x1, x2),
+                reference::<CpdiCorners>(&grid, cell, x1, x2),
+            );
+            proptest::prop_assert_eq!((gimp.first, gimp.len), (gimp_ref.first, gimp_ref.len));
+            proptest::prop_assert_eq!(bits(&gimp), bits(&gimp_ref));
+            proptest::prop_assert_eq!(bits(&cpdi), bits(&cpdi_ref));
+            if grid.cells >= 3 {
+                let mut fixed = Shape::default();
+                CpdiBasis::new(grid).eval_particle_n::<DOMAIN_SUPPORT>(cell, x, half, &mut fixed);
+                proptest::prop_assert_eq!(bits(&fixed), bits(&cpdi_ref));
+            }
+        }
     }
 }

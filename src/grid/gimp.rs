@@ -9,7 +9,7 @@
 //! The averaged functions are a non-negative partition of unity and their gradients sum to
 //! zero. A point evaluation ([`super::Basis::eval`]) is the plain linear hat.
 
-use super::domain::{hat, DomainBasis, DomainWeight};
+use super::domain::{hat_at, DomainBasis, DomainWeight, NodeSpan};
 use super::Grid;
 
 /// The exact domain average of the hat.
@@ -22,7 +22,7 @@ impl DomainWeight for GimpAverage {
     #[inline]
     fn weight(
         grid: &Grid,
-        node: usize,
+        span: NodeSpan,
         x1: f64,
         x2: f64,
         inv_length: f64,
@@ -32,15 +32,11 @@ impl DomainWeight for GimpAverage {
         // The hat is linear between the nodes X_{node-1}, X_node, X_{node+1}: on each piece
         // of [x1, x2] between them its mean is its midpoint value. Summing pieces avoids the
         // cancellation of an antiderivative difference on short domains.
-        let node_x = grid.cell_left(node);
-        let left_x = node
-            .checked_sub(1)
-            .map_or(node_x - grid.h, |n| grid.cell_left(n));
         let mut start = x1;
         let mut integral = 0.0;
-        for end in [left_x, node_x, grid.cell_left(node + 1), x2] {
+        for end in [span.left, span.node, span.right, x2] {
             if end > start && end <= x2 {
-                integral += hat(grid, node, 0.5 * (start + end)) * (end - start);
+                integral += hat_at(grid, span.node, 0.5 * (start + end)) * (end - start);
                 start = end;
             }
         }
@@ -55,6 +51,7 @@ pub type GimpBasis = DomainBasis<GimpAverage>;
 mod tests {
     use super::super::domain::clipped_domain;
     use super::*;
+    use crate::grid::domain::hat;
     use crate::grid::{Basis, Shape};
     use proptest::prelude::*;
 
