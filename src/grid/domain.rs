@@ -46,7 +46,6 @@ pub trait DomainWeight: Copy + Default + Send + Sync {
     const NAME: &'static str;
     /// The weight `phi_bar` of the domain `[x1, x2]` for the node with span `span`;
     /// `inv_length = 1 / (x2 - x1)`, `hat1`, `hat2` are the hat values at the corners.
-    #[allow(clippy::too_many_arguments)]
     fn weight(
         grid: &Grid,
         span: NodeSpan,

@@ -373,7 +373,7 @@ impl<B: Basis> Kinematics<'_, B> {
             .map(
                 |(chunk, ((x, u, stress, volume, density, cell, f), mut task))| {
                     let start = chunk * PARTICLES_PER_TASK;
-                    // Every field cut to the block's length: one bound for all the indexing.
+                    // Every field cut to the chunk's length: one bound for all the indexing.
                     let n = x.len();
                     let (u, stress, volume) = (&mut u[..n], &mut stress[..n], &mut volume[..n]);
                     let (density, cell, f) = (&mut density[..n], &mut cell[..n], &mut f[..n]);
