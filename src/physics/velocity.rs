@@ -134,12 +134,17 @@ fn update_velocities_n<B: Basis, S: ShapeSource, const N: usize>(
         .enumerate()
         .map(|(chunk, v)| {
             let start = chunk * PARTICLES_PER_TASK;
+            // The fields cut to the chunk's range: one bound for all the indexing (as in
+            // the particle update).
+            let n = v.len();
+            let (x, cell, volume) = (&x[start..][..n], &cell[start..][..n], &volume[start..][..n]);
+            let momentum = momentum.map(|(mass, of)| (&mass[start..][..n], of));
             let mut shape = Shape::default();
             let mut bad = false;
             let mut sums = [0.0; 2];
             for (k, v) in v.iter_mut().enumerate() {
                 let p = start + k;
-                source.shape_of::<B, N>(basis, p, cell[p], x[p], 0.5 * volume[p], &mut shape);
+                source.shape_of::<B, N>(basis, p, cell[k], x[k], 0.5 * volume[k], &mut shape);
                 let previous = *v;
                 *v += dt * shape.interpolate_n::<N>(acceleration);
                 bad |= !v.is_finite();
@@ -148,8 +153,8 @@ fn update_velocities_n<B: Basis, S: ShapeSource, const N: usize>(
                         MomentumOf::Updated => *v,
                         MomentumOf::Previous => previous,
                     };
-                    sums[0] += mass[p] * counted;
-                    sums[1] += mass[p] * counted.abs();
+                    sums[0] += mass[k] * counted;
+                    sums[1] += mass[k] * counted.abs();
                 }
             }
             (bad, sums)
