@@ -57,6 +57,25 @@ pub trait ShapeSource: Sync {
         half_length: f64,
         shape: &mut Shape,
     );
+
+    /// `values(first, phi)` with the values `phi` of the shape of particle `p` (the same
+    /// numbers as [`Self::shape_of`]) and its first DOF, for a pass that needs no gradient.
+    /// A cache hands its slot over as it is, without copying the shape out.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn with_values<B: Basis, const N: usize, R>(
+        &self,
+        basis: &B,
+        p: usize,
+        cell: usize,
+        x: f64,
+        half_length: f64,
+        shape: &mut Shape,
+        values: impl FnOnce(usize, &[f64]) -> R,
+    ) -> R {
+        self.shape_of::<B, N>(basis, p, cell, x, half_length, shape);
+        values(shape.first, &shape.phi[..shape.support::<N>()])
+    }
 }
 
 /// Evaluate the basis in the pass itself.
@@ -267,6 +286,30 @@ impl ShapeSource for ShapeCache {
             shape.phi[..N].copy_from_slice(&self.phi[p * N..][..N]);
             shape.dphi[..N].copy_from_slice(&self.dphi[p * N..][..N]);
         }
+    }
+
+    /// The slot itself: no copy into `shape` (which is left as it was).
+    #[inline(always)]
+    fn with_values<B: Basis, const N: usize, R>(
+        &self,
+        _basis: &B,
+        p: usize,
+        _cell: usize,
+        _x: f64,
+        _half_length: f64,
+        _shape: &mut Shape,
+        values: impl FnOnce(usize, &[f64]) -> R,
+    ) -> R {
+        debug_assert!(
+            N == 0 || N == self.width,
+            "read with the support it was filled with"
+        );
+        let phi = if N == 0 {
+            &self.phi[p * self.width..][..usize::from(self.len[p])]
+        } else {
+            &self.phi[p * N..][..N]
+        };
+        values(self.first[p], phi)
     }
 }
 

@@ -18,6 +18,7 @@
 
 use super::scatter::{add_outer, Local};
 use super::{CellScatter, GridFields};
+use crate::grid::basis::shape_dot;
 use crate::grid::tensor::with_fixed_support;
 use crate::grid::{Basis, Evaluate, Shape, ShapeSource};
 use crate::numerics::sum::deterministic_sums;
@@ -175,19 +176,18 @@ pub(crate) fn add_mass_and_force<const N: usize>(
     }
 }
 
-/// Add a point of momentum `mv` with shape `shape` (support `N`, or `shape.len` when
-/// `N = 0`) to a cell's local momentum, `offset = shape.first - window_first`:
-/// `p_k += mv phi_k`. The one accumulation of the momentum map, here and in the fused MUSL
-/// pass ([`update_velocities_and_map_momentum`]), so both sum the same bits.
+/// Add a point of momentum `mv` with shape values `phi` (the support's functions, from
+/// DOF `offset` of the window on: `offset = first - window_first`) to a cell's local
+/// momentum: `p_k += mv phi_k`. The one accumulation of the momentum map, here and in the
+/// fused MUSL pass ([`update_velocities_and_map_momentum`]), so both sum the same bits.
 #[inline(always)]
-fn add_momentum<const N: usize>(
+fn add_momentum(
     p_local: &mut [f64; crate::grid::MAX_SUPPORT],
     offset: usize,
-    shape: &Shape,
+    phi: &[f64],
     mv: f64,
 ) {
-    let n = shape.support::<N>();
-    for (p_k, phi) in p_local[offset..][..n].iter_mut().zip(&shape.phi[..n]) {
+    for (p_k, phi) in p_local[offset..][..phi.len()].iter_mut().zip(phi) {
         *p_k += mv * phi;
     }
 }
@@ -225,7 +225,12 @@ fn scatter_momentum<B: Basis, P: PointSet, const N: usize>(
             let mut shape = Shape::default();
             points.for_each_in(cell, |p, x| {
                 points.shape_at::<B, N>(basis, p, cell, x, 0.5 * (volume[p] * w), &mut shape);
-                add_momentum::<N>(p_local, shape.first - first, &shape, mass[p] * w * v[p]);
+                add_momentum(
+                    p_local,
+                    shape.first - first,
+                    &shape.phi[..shape.support::<N>()],
+                    mass[p] * w * v[p],
+                );
             });
         },
     );
@@ -287,9 +292,19 @@ fn velocities_and_momentum<B: Basis, S: ShapeSource, const N: usize>(
         |cell, first, cell_particles, velocity, [p_local]| {
             let mut shape = Shape::default();
             for (p, v) in cell_particles.zip(velocity.iter_mut()) {
-                source.shape_of::<B, N>(basis, p, cell, x[p], 0.5 * (volume[p] * w), &mut shape);
-                *v += dt * shape.interpolate_n::<N>(acceleration);
-                add_momentum::<N>(p_local, shape.first - first, &shape, mass[p] * w * *v);
+                let half_length = 0.5 * (volume[p] * w);
+                source.with_values::<B, N, _>(
+                    basis,
+                    p,
+                    cell,
+                    x[p],
+                    half_length,
+                    &mut shape,
+                    |at, phi| {
+                        *v += dt * shape_dot(phi, &acceleration[at..][..phi.len()]);
+                        add_momentum(p_local, at - first, phi, mass[p] * w * *v);
+                    },
+                );
             }
         },
     );
