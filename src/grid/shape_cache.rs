@@ -233,7 +233,11 @@ impl CacheSlots<'_> {
             (&self.phi[at..][..n], &self.dphi[at..][..n])
         } else {
             debug_assert_eq!(N, self.width, "read with the support it was filled with");
-            (&self.phi[k * N..][..N], &self.dphi[k * N..][..N])
+            // Slot `k` as an `[f64; N]`: one bound per field.
+            (
+                &self.phi.as_chunks::<N>().0[k][..],
+                &self.dphi.as_chunks::<N>().0[k][..],
+            )
         };
         let g = &g[first..][..phi.len()];
         let interpolated = shape_dot(phi, g);
@@ -247,14 +251,16 @@ impl CacheSlots<'_> {
         let support = shape.support::<N>();
         self.first[k] = shape.first;
         self.len[k] = support as u8;
-        let at = if N == 0 {
-            k * self.width
+        if N == 0 {
+            let at = k * self.width;
+            self.phi[at..][..support].copy_from_slice(&shape.phi[..support]);
+            self.dphi[at..][..support].copy_from_slice(&shape.dphi[..support]);
         } else {
             debug_assert_eq!(N, self.width, "stored with the support it was filled with");
-            k * N
-        };
-        self.phi[at..][..support].copy_from_slice(&shape.phi[..support]);
-        self.dphi[at..][..support].copy_from_slice(&shape.dphi[..support]);
+            // Slot `k` as an `[f64; N]`: one bound per field.
+            self.phi.as_chunks_mut::<N>().0[k].copy_from_slice(&shape.phi[..N]);
+            self.dphi.as_chunks_mut::<N>().0[k].copy_from_slice(&shape.dphi[..N]);
+        }
     }
 }
 
@@ -283,8 +289,8 @@ impl ShapeSource for ShapeCache {
         } else {
             // Filled with the same `N`: `width == N` (see `fill_n`).
             shape.len = N;
-            shape.phi[..N].copy_from_slice(&self.phi[p * N..][..N]);
-            shape.dphi[..N].copy_from_slice(&self.dphi[p * N..][..N]);
+            shape.phi[..N].copy_from_slice(&self.phi.as_chunks::<N>().0[p]);
+            shape.dphi[..N].copy_from_slice(&self.dphi.as_chunks::<N>().0[p]);
         }
     }
 
@@ -307,7 +313,7 @@ impl ShapeSource for ShapeCache {
         let phi = if N == 0 {
             &self.phi[p * self.width..][..usize::from(self.len[p])]
         } else {
-            &self.phi[p * N..][..N]
+            &self.phi.as_chunks::<N>().0[p][..]
         };
         values(self.first[p], phi)
     }
