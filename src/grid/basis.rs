@@ -152,6 +152,10 @@ pub trait Basis: Sync + Send {
     /// `Some(n)` when every evaluation has exactly `n` non-zero functions (`Shape::len`),
     /// so that particle loops can be compiled for that support size; `None` (the default)
     /// when it varies (DDMPM; GIMP and CPDI on grids of fewer than three cells).
+    ///
+    /// A basis with a fixed support also starts every particle shape in cell `cell` at the
+    /// cell's window, `Shape::first == self.cell_window(cell).0` (the shape cache relies on
+    /// it and does not read `first` back).
     fn fixed_support(&self) -> Option<usize> {
         None
     }

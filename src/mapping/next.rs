@@ -167,11 +167,18 @@ fn cell_sums<B: Basis>(
 }
 
 impl NextTask<'_> {
-    /// `(phi^T g, dphi^T g)` of the current shape of the task's particle `k` (the gradient
-    /// only when `gradient`), read straight from its slot ([`CacheSlots::dots`]).
+    /// `(phi^T g, dphi^T g)` of the current shape of the task's particle `k` in `cell` (the
+    /// gradient only when `gradient`), read straight from its slot ([`CacheSlots::dots`]).
     #[inline(always)]
-    pub fn current_dots<const N: usize>(&self, k: usize, g: &[f64], gradient: bool) -> (f64, f64) {
-        self.slots.dots::<N>(k, g, gradient)
+    pub fn current_dots<B: Basis, const N: usize>(
+        &self,
+        basis: &B,
+        k: usize,
+        cell: usize,
+        g: &[f64],
+        gradient: bool,
+    ) -> (f64, f64) {
+        self.slots.dots::<B, N>(basis, k, cell, g, gradient)
     }
 
     /// Particle `k` moved to `x` in `cell` with volume `volume`, mass `mass` and stress

@@ -137,17 +137,17 @@ impl<B: Basis> TaskShapes<B> for NextTask<'_> {
     #[inline(always)]
     fn velocity_at<const N: usize>(
         &self,
-        _basis: &B,
+        basis: &B,
         k: usize,
         _p: usize,
-        _cell: usize,
+        cell: usize,
         _x: f64,
         _half_length: f64,
         velocity: &[f64],
         gradient: bool,
         _shape: &mut Shape,
     ) -> (f64, f64) {
-        self.current_dots::<N>(k, velocity, gradient)
+        self.current_dots::<B, N>(basis, k, cell, velocity, gradient)
     }
 
     #[inline(always)]
