@@ -14,7 +14,10 @@
 //!
 //! Memory: `W` values and `W` gradients per particle, `W = Basis::max_window()`, plus the
 //! first DOF and the support size: `16 W + 9` bytes per particle (57 B for quadratic
-//! B-splines, 73 B for cubic ones and for 1D GIMP / CPDI, whose window is 4 nodes).
+//! B-splines, 73 B for cubic ones and for 1D GIMP / CPDI, whose window is 4 nodes). With a
+//! fixed support the shape starts at its cell's window, so the passes move only the
+//! `16 W` bytes of values and gradients (the first DOF and support are allocated but not
+//! used).
 
 use super::basis::shape_dot;
 use super::tensor::with_fixed_support;
@@ -100,9 +103,15 @@ impl ShapeSource for Evaluate {
 /// The shapes of all particles at their current positions, `W` slots each. Read it with
 /// the `N` it was filled with (the basis' fixed support, `with_fixed_support!`) or with
 /// `N = 0`.
+///
+/// Filled with a fixed support (`N > 0`), a shape starts at its cell's window
+/// ([`Basis::fixed_support`]): `first` and `len` are then neither written nor read, and
+/// every read takes them from the cell.
 #[derive(Clone, Debug, Default)]
 pub struct ShapeCache {
     width: usize,
+    /// Filled and stored with a fixed support: `first` / `len` are not kept.
+    fixed: bool,
     first: Vec<usize>,
     len: Vec<u8>,
     phi: Vec<f64>,
@@ -141,6 +150,7 @@ impl ShapeCache {
         // B-splines), so that reads index with the compile-time `N`.
         let width = if N == 0 { basis.max_window() } else { N };
         self.width = width;
+        self.fixed = N > 0;
         self.first.resize(n, 0);
         self.len.resize(n, 0);
         self.phi.resize(n * width, 0.0);
@@ -170,6 +180,17 @@ impl ShapeCache {
                     slots.store::<N>(k, &shape);
                 }
             });
+    }
+
+    /// The first DOF and the support of particle `p`'s shape in cell `cell`: from the
+    /// cell's window when filled with a fixed support, else as stored.
+    #[inline(always)]
+    fn first_and_len<B: Basis>(&self, basis: &B, p: usize, cell: usize) -> (usize, usize) {
+        if self.fixed {
+            (basis.cell_window(cell).0, self.width)
+        } else {
+            (self.first[p], usize::from(self.len[p]))
+        }
     }
 
     /// The number of particles the cache holds shapes of.
@@ -239,7 +260,6 @@ impl CacheSlots<'_> {
         let first = if N == 0 {
             self.first[k]
         } else {
-            debug_assert_eq!(self.first[k], basis.cell_window(cell).0, "slot {k}");
             basis.cell_window(cell).0
         };
         // `[at..][..n]` rather than `[at..at + n]`: with `n = N` the slices then have a
@@ -265,14 +285,16 @@ impl CacheSlots<'_> {
     #[inline(always)]
     pub fn store<const N: usize>(&mut self, k: usize, shape: &Shape) {
         let support = shape.support::<N>();
-        self.first[k] = shape.first;
-        self.len[k] = support as u8;
         if N == 0 {
+            self.first[k] = shape.first;
+            self.len[k] = support as u8;
             let at = k * self.width;
             self.phi[at..][..support].copy_from_slice(&shape.phi[..support]);
             self.dphi[at..][..support].copy_from_slice(&shape.dphi[..support]);
         } else {
             debug_assert_eq!(N, self.width, "stored with the support it was filled with");
+            // A fixed support starts at the cell's window: no `first` / `len` to keep
+            // (`ShapeCache::fixed`).
             // Slot `k` as an `[f64; N]`: one bound per field.
             self.phi.as_chunks_mut::<N>().0[k].copy_from_slice(&shape.phi[..N]);
             self.dphi.as_chunks_mut::<N>().0[k].copy_from_slice(&shape.dphi[..N]);
@@ -284,26 +306,27 @@ impl ShapeSource for ShapeCache {
     #[inline(always)]
     fn shape_of<B: Basis, const N: usize>(
         &self,
-        _basis: &B,
+        basis: &B,
         p: usize,
-        _cell: usize,
+        cell: usize,
         _x: f64,
         _half_length: f64,
         shape: &mut Shape,
     ) {
         debug_assert!(
-            N == 0 || N == self.width,
+            N == 0 || (N == self.width && self.fixed),
             "read with the support it was filled with"
         );
-        shape.first = self.first[p];
         if N == 0 {
-            let support = usize::from(self.len[p]);
+            let (first, support) = self.first_and_len(basis, p, cell);
+            shape.first = first;
             let slots = p * self.width..p * self.width + support;
             shape.len = support;
             shape.phi[..support].copy_from_slice(&self.phi[slots.clone()]);
             shape.dphi[..support].copy_from_slice(&self.dphi[slots]);
         } else {
             // Filled with the same `N`: `width == N` (see `fill_n`).
+            shape.first = basis.cell_window(cell).0;
             shape.len = N;
             shape.phi[..N].copy_from_slice(&self.phi.as_chunks::<N>().0[p]);
             shape.dphi[..N].copy_from_slice(&self.dphi.as_chunks::<N>().0[p]);
@@ -323,17 +346,17 @@ impl ShapeSource for ShapeCache {
         values: impl FnOnce(usize, &[f64]) -> R,
     ) -> R {
         debug_assert!(
-            N == 0 || N == self.width,
+            N == 0 || (N == self.width && self.fixed),
             "read with the support it was filled with"
         );
         if N == 0 {
-            let phi = &self.phi[p * self.width..][..usize::from(self.len[p])];
-            values(self.first[p], phi)
+            let (first, support) = self.first_and_len(basis, p, cell);
+            values(first, &self.phi[p * self.width..][..support])
         } else {
-            // A fixed support starts at the cell's window (see `CacheSlots::dots`).
-            let first = basis.cell_window(cell).0;
-            debug_assert_eq!(self.first[p], first, "particle {p}");
-            values(first, &self.phi.as_chunks::<N>().0[p][..])
+            values(
+                basis.cell_window(cell).0,
+                &self.phi.as_chunks::<N>().0[p][..],
+            )
         }
     }
 }
