@@ -53,7 +53,7 @@ impl Grid {
     /// Left end of cell `cell`.
     #[inline]
     pub fn cell_left(&self, cell: usize) -> f64 {
-        self.origin + index_as_f64(cell) * self.h
+        self.origin + crate::numerics::index_as_f64(cell) * self.h
     }
 
     /// The cell containing `x`, or `None` outside `[origin, origin + length]`. The right end
@@ -77,14 +77,6 @@ impl Grid {
         }
         Some((xi as i64).min(cells - 1) as usize)
     }
-}
-
-/// `index as f64` through `i64`: the same value for every index a slice can have (below
-/// `isize::MAX`; exact below 2^53), one `cvtsi2sd` on x86_64 where the unsigned conversion
-/// takes six instructions. For the node positions and knot spans of the particle loops.
-#[inline(always)]
-pub(crate) fn index_as_f64(index: usize) -> f64 {
-    index as i64 as f64
 }
 
 #[cfg(test)]

@@ -64,8 +64,7 @@ pub fn open_uniform_fixed<const P: usize>(
     let values = &mut values[..=P];
     let derivatives = &mut derivatives[..=P];
     let mut lower = [0.0; P];
-    // `span as f64` through `i64` (one instruction; the same value for any slice index).
-    let t = u - span as i64 as f64;
+    let t = u - super::index_as_f64(span);
     values[0] = 1.0;
     for j in 1..=P {
         if j == P {
