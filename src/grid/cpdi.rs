@@ -32,19 +32,6 @@ impl DomainWeight for CpdiCorners {
     ) -> f64 {
         0.5 * (hat1 + hat2)
     }
-
-    #[inline(always)]
-    fn inside_weight(
-        _grid: &Grid,
-        _node: f64,
-        _x1: f64,
-        _x2: f64,
-        _inv_length: f64,
-        hat1: f64,
-        hat2: f64,
-    ) -> f64 {
-        0.5 * (hat1 + hat2)
-    }
 }
 
 /// CPDI weights on the linear grid.

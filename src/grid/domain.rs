@@ -61,17 +61,21 @@ pub trait DomainWeight: Copy + Default + Send + Sync {
         hat2: f64,
     ) -> f64;
 
-    /// [`DomainWeight::weight`] of the node at `node` when the domain `[x1, x2]` lies
-    /// strictly inside one of the node's two cells (no node inside the domain), bit for bit.
+    /// [`DomainWeight::weight`] when the domain `[x1, x2]` lies strictly inside one of the
+    /// node's two cells (no node inside the domain), bit for bit: a rule may override it
+    /// with a form specialised to that case. Default: `weight` itself.
+    #[inline(always)]
     fn inside_weight(
         grid: &Grid,
-        node: f64,
+        span: NodeSpan,
         x1: f64,
         x2: f64,
         inv_length: f64,
         hat1: f64,
         hat2: f64,
-    ) -> f64;
+    ) -> f64 {
+        Self::weight(grid, span, x1, x2, inv_length, hat1, hat2)
+    }
 }
 
 /// Linear hats averaged over the particle domain by the rule `W` (GIMP, CPDI).
@@ -174,9 +178,9 @@ impl<W: DomainWeight> DomainBasis<W> {
             let (phi, dphi) = (&mut shape.phi[..len], &mut shape.dphi[..len]);
             phi.fill(0.0);
             dphi.fill(0.0);
-            for (k, node) in nodes.into_iter().enumerate() {
-                let (hat1, hat2) = (hat_at(grid, node, x1), hat_at(grid, node, x2));
-                phi[offset + k] = W::inside_weight(grid, node, x1, x2, inv_length, hat1, hat2);
+            for (k, span) in nodes.into_iter().enumerate() {
+                let (hat1, hat2) = (hat_at(grid, span.node, x1), hat_at(grid, span.node, x2));
+                phi[offset + k] = W::inside_weight(grid, span, x1, x2, inv_length, hat1, hat2);
             }
             let slope = (x2 - x1) * grid.inv_h * inv_length;
             dphi[offset] = -slope;
@@ -226,7 +230,7 @@ impl<W: DomainWeight> DomainBasis<W> {
     }
 }
 
-/// The positions of nodes `cell` and `cell + 1` when the domain `[x1, x2]` lies strictly
+/// The spans of nodes `cell` and `cell + 1` when the domain `[x1, x2]` lies strictly
 /// inside cell `cell` and the hats of the nodes beyond (`cell - 1` at `x1`, `cell + 2` at
 /// `x2`) are exactly 0, else `None`.
 ///
@@ -237,7 +241,7 @@ impl<W: DomainWeight> DomainBasis<W> {
 /// hat of 0. So [`DomainBasis`] evaluates just these two nodes (12 particles per cell put
 /// about 11 in 12 domains inside a cell), with the same formulas: the same bits.
 #[inline(always)]
-fn inside_cell(grid: &Grid, cell: usize, x1: f64, x2: f64) -> Option<[f64; 2]> {
+fn inside_cell(grid: &Grid, cell: usize, x1: f64, x2: f64) -> Option<[NodeSpan; 2]> {
     let left = grid.cell_left(cell);
     let right = grid.cell_left(cell + 1);
     if !(x1 > left && x2 < right) {
@@ -250,7 +254,18 @@ fn inside_cell(grid: &Grid, cell: usize, x1: f64, x2: f64) -> Option<[f64; 2]> {
     // `hat_at(outer_left, x1) == 0` and `hat_at(outer_right, x2) == 0`: `1 - s <= 0`, exact
     // for `s` near 1.
     let beyond = (x1 - outer_left) * grid.inv_h >= 1.0 && (outer_right - x2) * grid.inv_h >= 1.0;
-    beyond.then_some([left, right])
+    beyond.then_some([
+        NodeSpan {
+            left: outer_left,
+            node: left,
+            right,
+        },
+        NodeSpan {
+            left,
+            node: right,
+            right: outer_right,
+        },
+    ])
 }
 
 /// `hat(x2) - hat(x1)` summed over the linear pieces of the hat (slope `+-1/h` times the

@@ -48,14 +48,14 @@ impl DomainWeight for GimpAverage {
     #[inline(always)]
     fn inside_weight(
         grid: &Grid,
-        node: f64,
+        span: NodeSpan,
         x1: f64,
         x2: f64,
         inv_length: f64,
         _hat1: f64,
         _hat2: f64,
     ) -> f64 {
-        hat_at(grid, node, 0.5 * (x1 + x2)) * (x2 - x1) * inv_length
+        hat_at(grid, span.node, 0.5 * (x1 + x2)) * (x2 - x1) * inv_length
     }
 }
 
