@@ -35,13 +35,20 @@ impl NodeSpan {
     pub fn of(grid: &Grid, node: usize) -> Self {
         let node_x = grid.cell_left(node);
         Self {
-            left: node
-                .checked_sub(1)
-                .map_or(node_x - grid.h, |n| grid.cell_left(n)),
+            left: left_neighbour(grid, node, node_x),
             node: node_x,
             right: grid.cell_left(node + 1),
         }
     }
+}
+
+/// The position of the node left of node `node` (at `node_x`): `X_{node-1}`, or
+/// `X_0 - h` left of node 0. The one rule of every span, so that neighbouring nodes share
+/// their positions bit for bit.
+#[inline(always)]
+fn left_neighbour(grid: &Grid, node: usize, node_x: f64) -> f64 {
+    node.checked_sub(1)
+        .map_or(node_x - grid.h, |n| grid.cell_left(n))
 }
 
 /// How a particle-domain basis turns the clipped domain `[x_1, x_2]` into the weight of
@@ -195,9 +202,7 @@ impl<W: DomainWeight> DomainBasis<W> {
         for (k, position) in positions.iter_mut().enumerate().skip(1) {
             *position = grid.cell_left(first + k - 1);
         }
-        positions[0] = first
-            .checked_sub(1)
-            .map_or(positions[1] - grid.h, |n| grid.cell_left(n));
+        positions[0] = left_neighbour(grid, first, positions[1]);
         let (phi, dphi) = (&mut shape.phi[..len], &mut shape.dphi[..len]);
         for (k, (phi, dphi)) in phi.iter_mut().zip(dphi.iter_mut()).enumerate() {
             let span = NodeSpan {
@@ -247,9 +252,7 @@ fn inside_cell(grid: &Grid, cell: usize, x1: f64, x2: f64) -> Option<[NodeSpan; 
     if !(x1 > left && x2 < right) {
         return None;
     }
-    let outer_left = cell
-        .checked_sub(1)
-        .map_or(left - grid.h, |n| grid.cell_left(n));
+    let outer_left = left_neighbour(grid, cell, left);
     let outer_right = grid.cell_left(cell + 2);
     // `hat_at(outer_left, x1) == 0` and `hat_at(outer_right, x2) == 0`: `1 - s <= 0`, exact
     // for `s` near 1.

@@ -16,6 +16,7 @@ pub mod shape_cache;
 pub mod tensor;
 pub mod tensor_shape_cache;
 
+use crate::numerics::index_as_f64;
 pub use basis::{Basis, ParticleQuadrature, Shape, MAX_SUPPORT};
 pub use bspline::BSplineBasis;
 pub use cpdi::CpdiBasis;
@@ -53,7 +54,7 @@ impl Grid {
     /// Left end of cell `cell`.
     #[inline]
     pub fn cell_left(&self, cell: usize) -> f64 {
-        self.origin + crate::numerics::index_as_f64(cell) * self.h
+        self.origin + index_as_f64(cell) * self.h
     }
 
     /// The cell containing `x`, or `None` outside `[origin, origin + length]`. The right end
