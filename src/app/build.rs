@@ -6,8 +6,8 @@
 
 use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{
-    BasisKind, MassKind, MaterialModel, MomentumLimiter, ReconstructionKind, Scenario, StrainKind,
-    StressFit,
+    BasisKind, MassKind, MaterialModel, MomentumLimiter, ParticleAcceleration, ReconstructionKind,
+    Scenario, StrainKind, StressFit,
 };
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
@@ -130,7 +130,10 @@ pub fn build_simulation(
                     Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                 })?
                 .with_consistent_velocity(method.mass == MassKind::Consistent)
-                .with_adjoint_strain(method.strain(two_phase) == StrainKind::Adjoint);
+                .with_adjoint_strain(method.strain(two_phase) == StrainKind::Adjoint)
+                .with_conjugate_acceleration(
+                    method.particle_acceleration() == ParticleAcceleration::Conjugate,
+                );
             with_basis(scenario, parts, mapping, &mut particles)?
         }
     };

@@ -99,6 +99,11 @@ impl Scenario {
         let lumped = "no consistent mass is solved (method.mass and method.acceleration_mass \
                       are \"lumped\")"
             .to_string();
+        // MLS / IMLS fit nodal velocities with the linear basis only.
+        let nodal_mls = matches!(
+            method.reconstruction,
+            ReconstructionKind::Mls | ReconstructionKind::Imls
+        ) && method.basis == BasisKind::Linear;
         let only_tls = format!("only used by method.reconstruction = \"tls\" ({reconstruction})");
         let only_multigrid = format!(
             "only used by the p-multigrid solvers (solver.kind = \"{}\"{})",
@@ -112,7 +117,7 @@ impl Scenario {
         let only_problem =
             |name: &str| format!("only used by problem.kind = \"{name}\" ({problem})");
         // (keys, ignored, why: the choice that makes them meaningless).
-        let rules: [(&[&str], bool, String); 9] = [
+        let rules: [(&[&str], bool, String); 10] = [
             (
                 &["method.order"],
                 method.basis != BasisKind::Bspline,
@@ -138,6 +143,15 @@ impl Scenario {
                 ],
                 method.reconstruction != ReconstructionKind::Tls,
                 only_tls,
+            ),
+            (
+                &["method.particle_acceleration"],
+                !nodal_mls || method.mass == MassKind::Consistent,
+                format!(
+                    "only used by method.reconstruction = \"mls\" / \"imls\" with \
+                     method.basis = \"linear\" and method.mass = \"lumped\" \
+                     ({reconstruction}, {basis})"
+                ),
             ),
             (&["solver.kind", "solver.tolerance"], !consistent, lumped),
             (

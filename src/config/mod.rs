@@ -159,6 +159,56 @@ end = 1.9e-6
     }
 
     #[test]
+    fn the_particle_acceleration_defaults_to_the_basis_and_is_checked() {
+        let with = |sets: &[&str]| {
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            from_str(BAR, "bar", &sets).and_then(|s| s.validate().map(|()| s))
+        };
+        let imls = with(&["method.reconstruction=imls"]).unwrap();
+        assert_eq!(
+            imls.method.particle_acceleration(),
+            ParticleAcceleration::Basis
+        );
+        assert!(imls.ignored_key_warnings().is_empty());
+        let conjugate = with(&[
+            "method.reconstruction=imls",
+            "method.particle_acceleration=conjugate",
+        ])
+        .unwrap();
+        assert_eq!(
+            conjugate.method.particle_acceleration(),
+            ParticleAcceleration::Conjugate
+        );
+        assert!(conjugate.ignored_key_warnings().is_empty());
+        // Meaningless with TLS or a consistent velocity mass: a warning naming the key.
+        for other in [
+            "method.reconstruction=tls",
+            "method.mass=consistent",
+            "method.basis=bspline",
+        ] {
+            let s = with(&[
+                "method.reconstruction=imls",
+                other,
+                "method.particle_acceleration=conjugate",
+            ])
+            .unwrap();
+            let warnings = s.ignored_key_warnings();
+            assert!(
+                warnings
+                    .iter()
+                    .any(|w| w.starts_with("method.particle_acceleration")),
+                "{other}: {warnings:?}"
+            );
+        }
+        let err = with(&["method.particle_acceleration=hats"]).unwrap_err();
+        assert!(
+            err.to_string().contains("method.particle_acceleration"),
+            "{err}"
+        );
+        assert!(err.is_input_error());
+    }
+
+    #[test]
     fn the_energy_consistent_tls_keys_are_1d_only_and_checked() {
         let with = |text: &str, sets: &[&str]| {
             let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

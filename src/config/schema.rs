@@ -474,6 +474,24 @@ pub struct MethodConfig {
     /// The TLS stress fit (1D). Default: see [`MethodConfig::stress_fit`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stress_fit: Option<StressFit>,
+    /// How MLS / IMLS (linear basis, 1D) accelerate the particles. Default: see
+    /// [`MethodConfig::particle_acceleration`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub particle_acceleration: Option<ParticleAcceleration>,
+}
+
+/// `method.particle_acceleration`: the particle velocity update of MLS / IMLS with the
+/// linear basis (`src/mapping/mls/conjugate.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParticleAcceleration {
+    /// `a_p = sum_i N_i(x_p) a_i` with the hats (the published method).
+    Basis,
+    /// The transpose of the momentum map, corrected so that every particle's column keeps
+    /// its mass and first moment: the grid's and the particles' work agree exactly, so
+    /// the velocity map feeds no energy into the particles (exact for linear
+    /// accelerations; first-order accurate on the manufactured bar).
+    Conjugate,
 }
 
 /// `method.stress_fit`: how TLS fits the particle stresses in a cell.
@@ -591,6 +609,7 @@ impl Default for MethodConfig {
             conservative_degree: None,
             momentum_limiter: None,
             stress_fit: None,
+            particle_acceleration: None,
         }
     }
 }
@@ -617,6 +636,12 @@ impl MethodConfig {
     /// `method.stress_fit` if given, else a full fit (the published TLS).
     pub fn stress_fit(&self) -> StressFit {
         self.stress_fit.unwrap_or(StressFit::Full)
+    }
+
+    /// `method.particle_acceleration` if given, else the basis values at the particle.
+    pub fn particle_acceleration(&self) -> ParticleAcceleration {
+        self.particle_acceleration
+            .unwrap_or(ParticleAcceleration::Basis)
     }
 
     /// `method.momentum_limiter` if given, else none (the published TLS fits).

@@ -41,6 +41,12 @@
 //!   `(rho v)_p = rho_p v_p` is reconstructed at the Gauss points with the quadratic fit and
 //!   integrated by [`integrate_momentum`], `p_i = int (rho v)_hat phi_i`.
 //!
+//! **Particle acceleration** ([`Mapping::particle_accelerations`]): the hats at the
+//! particle (the paper's step), or with [`MlsMapping::with_conjugate_acceleration`]
+//! (`method.particle_acceleration = "conjugate"`, linear basis, lumped velocity mass) the
+//! transpose of a mass- and moment-corrected nodal momentum map ([`conjugate`]), so that the
+//! grid's and the particles' work agree.
+//!
 //! **Strain** ([`Mapping::strain_increments`]): with [`MlsMapping::with_adjoint_strain`]
 //! (`method.strain = "adjoint"`, the default for one-phase MLS / IMLS) the particle strain
 //! increments are the adjoint of the internal force, the fit-weighted mean of the
@@ -310,6 +316,13 @@ pub struct MlsMapping {
     /// Whether the particle strains are the adjoint of the internal force
     /// ([`MlsMapping::with_adjoint_strain`]).
     adjoint_strain: bool,
+    /// Whether the particle acceleration is the transpose of a mass- and moment-corrected
+    /// momentum map ([`conjugate`]; linear basis, lumped velocity mass).
+    conjugate_momentum: bool,
+    /// Linear nodal fit functionals `[l_0, l_1]` ([`conjugate`]).
+    node_functional: Vec<[f64; 2]>,
+    /// Every particle's `[alpha_p, beta_p]` ([`conjugate`]).
+    correction: Vec<[f64; 2]>,
     /// The stress fit at every Gauss point as a functional of the particle data, `[cell][g]`:
     /// `sigma_hat(x_g) = sum_p w_p (l_0 + l_1 s_p + l_2 s_p^2) sigma_p` (see [`functional`]).
     functional: Vec<[f64; 3]>,
@@ -335,6 +348,9 @@ impl MlsMapping {
             nodal: Vec::new(),
             consistent_velocity: false,
             adjoint_strain: false,
+            conjugate_momentum: false,
+            node_functional: Vec::new(),
+            correction: Vec::new(),
             functional: Vec::new(),
             gauss_gradient: Vec::new(),
         })
@@ -351,6 +367,14 @@ impl MlsMapping {
     /// [`adjoint`]) instead of the velocity gradient at the particle (the paper's eq. 37).
     pub fn with_adjoint_strain(mut self, adjoint: bool) -> Self {
         self.adjoint_strain = adjoint;
+        self
+    }
+
+    /// With the linear basis and the lumped velocity mass, accelerate the particles with the
+    /// transpose of a momentum map corrected to keep every particle's mass and first moment
+    /// (`method.particle_acceleration = "conjugate"`, see [`conjugate`]) instead of the hats.
+    pub fn with_conjugate_acceleration(mut self, conjugate: bool) -> Self {
+        self.conjugate_momentum = conjugate;
         self
     }
 
@@ -464,6 +488,9 @@ impl Mapping for MlsMapping {
             }
             (own, m) => *own = m.clone(),
         }
+        if self.conjugate_momentum && basis.name() == "linear" {
+            self.prepare_conjugate(particles, bins);
+        }
     }
 
     fn map_momentum<B: Basis>(
@@ -516,6 +543,9 @@ impl Mapping for MlsMapping {
                 for ((p, m), vi) in grid.momentum.iter_mut().zip(&self.lumped).zip(&self.nodal) {
                     *p = m * vi;
                 }
+                if self.conjugate_momentum {
+                    self.add_momentum_correction(particles, bins, &mut grid.momentum);
+                }
             }
         }
     }
@@ -532,6 +562,21 @@ impl Mapping for MlsMapping {
             return false;
         }
         self.adjoint_strain_increments(basis, particles, velocity, dt, deps);
+        true
+    }
+
+    fn particle_accelerations<B: Basis>(
+        &mut self,
+        basis: &B,
+        particles: &Particles,
+        acceleration: &[f64],
+        out: &mut Vec<f64>,
+    ) -> bool {
+        let lumped = self.consistent.is_none() || !self.consistent_velocity;
+        if !(self.conjugate_momentum && lumped && basis.name() == "linear") {
+            return false;
+        }
+        self.conjugate_accelerations(particles, acceleration, out);
         true
     }
 
@@ -553,5 +598,6 @@ fn functional(kind: MlsKind, mu: &[f64; 5]) -> [f64; 3] {
 }
 
 pub mod adjoint;
+pub mod conjugate;
 #[cfg(test)]
 mod tests;
