@@ -132,7 +132,8 @@ pub fn build_simulation(
                 .with_consistent_velocity(method.mass == MassKind::Consistent)
                 .with_adjoint_strain(method.strain(two_phase) == StrainKind::Adjoint)
                 .with_conjugate_acceleration(
-                    method.particle_acceleration() == ParticleAcceleration::Conjugate,
+                    // The two-phase step accelerates its particles itself.
+                    !two_phase && method.particle_acceleration() == ParticleAcceleration::Conjugate,
                 );
             with_basis(scenario, parts, mapping, &mut particles)?
         }

@@ -7,7 +7,8 @@
 //! defaults.
 
 use super::schema::{
-    BasisKind, MassKind, ProblemKind, ReconstructionKind, ReferenceKind, Scenario, SolverKind,
+    BasisKind, MassKind, MaterialModel, ProblemKind, ReconstructionKind, ReferenceKind, Scenario,
+    SolverKind,
 };
 use super::toml_value;
 use std::collections::BTreeMap;
@@ -99,6 +100,7 @@ impl Scenario {
         let lumped = "no consistent mass is solved (method.mass and method.acceleration_mass \
                       are \"lumped\")"
             .to_string();
+        let two_phase = self.material.model == MaterialModel::TwoPhase;
         // MLS / IMLS fit nodal velocities with the linear basis only.
         let nodal_mls = matches!(
             method.reconstruction,
@@ -146,10 +148,10 @@ impl Scenario {
             ),
             (
                 &["method.particle_acceleration"],
-                !nodal_mls || method.mass == MassKind::Consistent,
+                !nodal_mls || method.mass == MassKind::Consistent || two_phase,
                 format!(
                     "only used by method.reconstruction = \"mls\" / \"imls\" with \
-                     method.basis = \"linear\" and method.mass = \"lumped\" \
+                     method.basis = \"linear\" and method.mass = \"lumped\", one phase \
                      ({reconstruction}, {basis})"
                 ),
             ),
