@@ -378,6 +378,15 @@ impl MlsMapping {
         self
     }
 
+    /// The consistent mass matrix of the velocity solve, when the momentum is `M^C v`
+    /// (assembled by the last mass map and asked for by
+    /// [`MlsMapping::with_consistent_velocity`]); `None`: `p_i = m_i v_i`.
+    fn consistent_velocity_mass(&self) -> Option<&CsrMatrix> {
+        self.consistent
+            .as_ref()
+            .filter(|_| self.consistent_velocity)
+    }
+
     /// The active part of each cell used by the last mapping.
     pub fn domains(&self) -> &CellDomains {
         &self.domains
@@ -533,11 +542,7 @@ impl Mapping for MlsMapping {
             })
             .sum();
         self.remedies += counts;
-        match self
-            .consistent
-            .as_ref()
-            .filter(|_| self.consistent_velocity)
-        {
+        match self.consistent_velocity_mass() {
             Some(matrix) => matrix.mul_vec(&self.nodal, &mut grid.momentum),
             None => {
                 for ((p, m), vi) in grid.momentum.iter_mut().zip(&self.lumped).zip(&self.nodal) {
@@ -572,7 +577,7 @@ impl Mapping for MlsMapping {
         acceleration: &[f64],
         out: &mut Vec<f64>,
     ) -> bool {
-        let lumped = self.consistent.is_none() || !self.consistent_velocity;
+        let lumped = self.consistent_velocity_mass().is_none();
         if !(self.conjugate_momentum && lumped && basis.name() == "linear") {
             return false;
         }

@@ -47,7 +47,7 @@ impl MlsMapping {
             .with_min_len(NODES_PER_TASK)
             .enumerate()
             .for_each(|(node, out)| {
-                let xi = mesh.origin + node as f64 * mesh.h;
+                let xi = mesh.cell_left(node);
                 let range = support(bins, node as isize - 2, node as isize + 1);
                 let m = Moments::<1>::gather(xi, mesh.inv_h, range, x, |_| [0.0]);
                 let unit = Moments::<2> {
@@ -67,12 +67,12 @@ impl MlsMapping {
                 for (k, out) in out.iter_mut().enumerate() {
                     let p = start + k;
                     let (mut s0, mut s1) = (0.0, 0.0);
-                    for_each_fit_node(&mesh, cell[p], x[p], |node, xi, c| {
-                        let weight = lumped[node] * c(functional[node]);
+                    for_each_fit_weight(&mesh, functional, cell[p], x[p], |node, xi, c| {
+                        let weight = lumped[node] * c;
                         s0 += weight;
                         s1 += weight * (xi - x[p]);
                     });
-                    let (left, right) = hat_nodes(&mesh, cell[p]);
+                    let (left, right) = (mesh.cell_left(cell[p]), mesh.cell_left(cell[p] + 1));
                     let q = (right - x[p]) * (x[p] - left);
                     let alpha = 1.0 - s0 / mass[p];
                     let beta = if q > 1e-9 * mesh.h * mesh.h {
@@ -100,12 +100,10 @@ impl MlsMapping {
             .with_min_len(NODES_PER_TASK)
             .enumerate()
             .for_each(|(node, out)| {
-                let xi = mesh.origin + node as f64 * mesh.h;
+                let xi = mesh.cell_left(node);
                 let mut sum = 0.0;
                 for p in support(bins, node as isize - 1, node as isize) {
-                    let hat = (1.0 - ((x[p] - xi) * mesh.inv_h).abs()).max(0.0);
-                    let [alpha, beta] = correction[p];
-                    sum += mass[p] * hat * (alpha + beta * (xi - x[p])) * v[p];
+                    sum += mass[p] * correction_weight(x[p], xi, mesh.inv_h, correction[p]) * v[p];
                 }
                 *out += sum;
             });
@@ -129,48 +127,56 @@ impl MlsMapping {
                 for (k, out) in out.iter_mut().enumerate() {
                     let p = start + k;
                     let mut fitted = 0.0;
-                    for_each_fit_node(&mesh, cell[p], x[p], |node, _, c| {
-                        fitted += lumped[node] * c(functional[node]) * acceleration[node];
+                    for_each_fit_weight(&mesh, functional, cell[p], x[p], |node, _, c| {
+                        fitted += lumped[node] * c * acceleration[node];
                     });
-                    let [alpha, beta] = correction[p];
-                    let (left, right) = hat_nodes(&mesh, cell[p]);
-                    let t = (x[p] - left) * mesh.inv_h;
-                    let e = cell[p];
-                    let corrected = (1.0 - t) * (alpha + beta * (left - x[p])) * acceleration[e]
-                        + t * (alpha + beta * (right - x[p])) * acceleration[e + 1];
+                    // The weights the momentum correction gathers: an exact transpose.
+                    let (e, xp) = (cell[p], x[p]);
+                    let corrected =
+                        correction_weight(xp, mesh.cell_left(e), mesh.inv_h, correction[p])
+                            * acceleration[e]
+                            + correction_weight(
+                                xp,
+                                mesh.cell_left(e + 1),
+                                mesh.inv_h,
+                                correction[p],
+                            ) * acceleration[e + 1];
                     *out = fitted / mass[p] + corrected;
                 }
             });
     }
 }
 
-/// The positions of the two nodes of `cell`.
+/// `N_i(x_p) (alpha_p + beta_p (x_i - x_p))`: the weight (over `m_p`) of the particle at
+/// `x` with correction `[alpha, beta]` on the node at `xi` in the corrected column of `P'`;
+/// zero beyond the hat.
 #[inline]
-fn hat_nodes(mesh: &crate::grid::Grid, cell: usize) -> (f64, f64) {
-    let left = mesh.origin + cell as f64 * mesh.h;
-    (left, left + mesh.h)
+fn correction_weight(x: f64, xi: f64, inv_h: f64, [alpha, beta]: [f64; 2]) -> f64 {
+    let hat = (1.0 - ((x - xi) * inv_h).abs()).max(0.0);
+    hat * (alpha + beta * (xi - x))
 }
 
-/// `f(node, x_node, c)` for every node whose fit kernel reaches `x` (`|x - x_i| < 1.5 h`:
-/// nodes `cell - 1 ..= cell + 2`), with `c(l) = w (l_0 + l_1 s)` the particle's weight in
-/// that node's fit functional `l`.
+/// `f(node, x_node, c_ip)` for every node whose fit kernel reaches `x` (`|x - x_i| < 1.5 h`:
+/// nodes `cell - 1 ..= cell + 2`), with `c_ip = w (l_0 + l_1 s)` the particle's weight in
+/// that node's fit functional `functional[node] = [l_0, l_1]`.
 #[inline]
-fn for_each_fit_node(
+fn for_each_fit_weight(
     mesh: &crate::grid::Grid,
+    functional: &[[f64; 2]],
     cell: usize,
     x: f64,
-    mut f: impl FnMut(usize, f64, &dyn Fn([f64; 2]) -> f64),
+    mut f: impl FnMut(usize, f64, f64),
 ) {
     let first = cell.saturating_sub(1);
     let last = (cell + 2).min(mesh.cells);
-    for node in first..=last {
-        let xi = mesh.origin + node as f64 * mesh.h;
+    for (node, [l0, l1]) in functional.iter().enumerate().take(last + 1).skip(first) {
+        let xi = mesh.cell_left(node);
         let s = (x - xi) * mesh.inv_h;
         let w = kernel(s);
         if w == 0.0 {
             continue;
         }
-        f(node, xi, &|[l0, l1]: [f64; 2]| w * (l0 + l1 * s));
+        f(node, xi, w * (l0 + l1 * s));
     }
 }
 
