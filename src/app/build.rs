@@ -6,8 +6,8 @@
 
 use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{
-    BasisKind, MassKind, MaterialModel, MomentumLimiter, ParticleAcceleration, ReconstructionKind,
-    Scenario, StrainKind, StressFit,
+    BasisKind, FitWeights, MassKind, MaterialModel, MomentumLimiter, ParticleAcceleration,
+    ReconstructionKind, Scenario, StrainKind, StressFit,
 };
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
@@ -102,7 +102,8 @@ pub fn build_simulation(
                     .with_momentum_limiter(
                         method.momentum_limiter() == MomentumLimiter::KineticEnergy,
                     )
-                    .with_conservative_stress(method.stress_fit() == StressFit::Conservative);
+                    .with_conservative_stress(method.stress_fit() == StressFit::Conservative)
+                    .with_domain_weights(method.fit_weights() == FitWeights::Domains);
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

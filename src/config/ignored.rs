@@ -142,6 +142,7 @@ impl Scenario {
                     "method.conservative_degree",
                     "method.momentum_limiter",
                     "method.stress_fit",
+                    "method.fit_weights",
                 ],
                 method.reconstruction != ReconstructionKind::Tls,
                 only_tls,

@@ -220,11 +220,24 @@ end = 1.9e-6
         let keys = [
             ("method.stress_fit", "conservative"),
             ("method.momentum_limiter", "kinetic_energy"),
+            ("method.fit_weights", "domains"),
         ];
-        // Defaults: the published fit, no limiter.
+        // Defaults: the published fit, no limiter, one point per particle.
         let tls = with(BAR, &["method.reconstruction=tls"]).unwrap();
         assert_eq!(tls.method.stress_fit(), StressFit::Full);
         assert_eq!(tls.method.momentum_limiter(), MomentumLimiter::None);
+        assert_eq!(tls.method.fit_weights(), FitWeights::Points);
+        // Without TLS: a warning naming the key.
+        let imls = with(
+            BAR,
+            &["method.reconstruction=imls", "method.fit_weights=domains"],
+        )
+        .unwrap();
+        let warnings = imls.ignored_key_warnings();
+        assert!(
+            warnings.iter().any(|w| w.starts_with("method.fit_weights")),
+            "{warnings:?}"
+        );
         for (key, value) in keys {
             let set = format!("{key}={value}");
             assert!(with(BAR, &["method.reconstruction=tls", &set]).is_ok());

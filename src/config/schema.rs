@@ -474,6 +474,10 @@ pub struct MethodConfig {
     /// The TLS stress fit (1D). Default: see [`MethodConfig::stress_fit`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stress_fit: Option<StressFit>,
+    /// The weights of the particles in the TLS least-squares fits (1D). Default: see
+    /// [`MethodConfig::fit_weights`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_weights: Option<FitWeights>,
     /// How MLS / IMLS (linear basis, 1D) accelerate the particles. Default: see
     /// [`MethodConfig::particle_acceleration`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -492,6 +496,20 @@ pub enum ParticleAcceleration {
     /// the velocity map feeds no energy into the particles (exact for linear
     /// accelerations; first-order accurate on the manufactured bar).
     Conjugate,
+}
+
+/// `method.fit_weights`: how the particles enter the least-squares fits of TLS (1D).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitWeights {
+    /// Each particle is one data point, of weight 1, in the fit of the cell of its centre
+    /// (the published method).
+    Points,
+    /// Each particle is a data point in every cell its domain `[x_p - V_p/2, x_p + V_p/2]`
+    /// overlaps, weighted by the overlapping fraction (the shares of
+    /// `method.cell_totals = "domains"`): the fits then change continuously when a particle
+    /// crosses a face, instead of jumping.
+    Domains,
 }
 
 /// `method.stress_fit`: how TLS fits the particle stresses in a cell.
@@ -609,6 +627,7 @@ impl Default for MethodConfig {
             conservative_degree: None,
             momentum_limiter: None,
             stress_fit: None,
+            fit_weights: None,
             particle_acceleration: None,
         }
     }
@@ -642,6 +661,12 @@ impl MethodConfig {
     pub fn particle_acceleration(&self) -> ParticleAcceleration {
         self.particle_acceleration
             .unwrap_or(ParticleAcceleration::Basis)
+    }
+
+    /// `method.fit_weights` if given, else one point per particle in the cell of its
+    /// centre (the published TLS fits).
+    pub fn fit_weights(&self) -> FitWeights {
+        self.fit_weights.unwrap_or(FitWeights::Points)
     }
 
     /// `method.momentum_limiter` if given, else none (the published TLS fits).

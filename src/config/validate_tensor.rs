@@ -255,6 +255,13 @@ impl Scenario {
                 "the kinetic-energy limiter",
             );
         }
+        if self.method.fit_weights == Some(FitWeights::Domains) {
+            return one_d_only(
+                "method.fit_weights",
+                "\"domains\"",
+                "the domain-weighted TLS fits",
+            );
+        }
         if self.method.stress_fit == Some(StressFit::Conservative) {
             return one_d_only(
                 "method.stress_fit",

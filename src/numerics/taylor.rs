@@ -72,24 +72,45 @@ impl TaylorCell {
     }
 }
 
-/// The symmetric normal matrix `D = sum psi psi^T` of one interval (upper triangle used).
+/// The symmetric normal matrix `D = sum w psi psi^T` of one interval (upper triangle used).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NormalMatrix {
     pub d: [[f64; 3]; 3],
     /// Points added.
     pub count: usize,
+    /// Sum of the weights of the points added (`count` when every weight is 1): the
+    /// well-posedness test of [`solve`] scales with it.
+    pub weight: f64,
 }
 
 impl NormalMatrix {
-    /// Add the point with basis values `psi`.
+    /// Add the point with basis values `psi` (weight 1).
     #[inline]
     pub fn add(&mut self, psi: &[f64; 3]) {
+        self.add_weighted(psi, 1.0);
+    }
+
+    /// Add the point with basis values `psi` and weight `w > 0` (its right-hand side then
+    /// takes `w psi value`, [`add_rhs`] with `w value`).
+    ///
+    /// ```
+    /// use tlsmpm::numerics::taylor::NormalMatrix;
+    /// let (mut once, mut twice) = (NormalMatrix::default(), NormalMatrix::default());
+    /// once.add_weighted(&[1.0, 0.5, 0.0], 2.0);
+    /// twice.add(&[1.0, 0.5, 0.0]);
+    /// twice.add(&[1.0, 0.5, 0.0]);
+    /// assert_eq!(once.d, twice.d);
+    /// assert_eq!(once.weight, twice.weight);
+    /// ```
+    #[inline]
+    pub fn add_weighted(&mut self, psi: &[f64; 3], w: f64) {
         for i in 0..3 {
             for j in i..3 {
-                self.d[i][j] += psi[i] * psi[j];
+                self.d[i][j] += w * psi[i] * psi[j];
             }
         }
         self.count += 1;
+        self.weight += w;
     }
 }
 
@@ -133,7 +154,7 @@ pub fn solve(
     // The block D[first..terms, first..terms], its right-hand side r - a_1 D[.., 1], and
     // the pivot thresholds: a pivot of the scaled block W D W (W = diag(1/sqrt(n S_i))) is
     // the pivot of D divided by n S_i, so no scaling is needed.
-    let count = normal.count.max(1) as f64;
+    let count = normal.weight.max(1.0);
     let mut m = [[0.0; 3]; 3];
     let mut b = [0.0; 3];
     let mut threshold = [0.0; 3];

@@ -2,10 +2,12 @@
 //! (`method.strain = "adjoint"`, docs/reconstruction.md "Adjoint strain and acceleration").
 //!
 //! Every TLS fit is linear in its particle data: the stress coefficients of cell `c` are
-//! `a_c = S_c(r_c)` with `r_c = sum_{p in c} psi_c(x_p) sigma_p` (plus, in a repaired cell,
+//! `a_c = S_c(r_c)` with `r_c = sum_p w_pc psi_c(x_p) sigma_p` (`w_pc` the particle's fit
+//! weight in `c`: 1 for the particles of `c`, or the share of its domain in `c` with
+//! `method.fit_weights = "domains"`; plus, in a repaired cell,
 //! virtual points `psi_c(x_f) a_n . psi_n(x_f)` from the fitted neighbour `n` at the shared
 //! face `x_f`), and the momentum coefficients are `alpha_c = S_c(r_c, t_c / |e_c|)` with
-//! `r_c = sum psi_c(x_p) rho_p v_p` and the conserved total `t_c = sum_p s_pc m_p v_p`
+//! `r_c = sum_p w_pc psi_c(x_p) rho_p v_p` and the conserved total `t_c = sum_p s_pc m_p v_p`
 //! (`s_pc` the share of particle `p` in cell `c`). So the power of the internal force and
 //! the work of the grid accelerations on the mapped momentum are
 //!
@@ -35,7 +37,9 @@
 //! `strain_fallbacks`): any positive weight keeps the conjugacy, so the step stays neutral;
 //! only that particle's strain under a uniform gradient is then not exact.
 
-use super::{add_shares, FieldFit, FitContext, FitState, TlsMapping, CELLS_PER_TASK};
+use super::{
+    add_shares, for_each_fit_cell, FieldFit, FitContext, FitState, TlsMapping, CELLS_PER_TASK,
+};
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
 use crate::numerics::taylor::{solve, solve_reduced_from, FitKind, NormalMatrix};
@@ -296,6 +300,7 @@ impl TlsMapping {
             }
         };
         let by_domains = self.totals == CellTotals::Domains;
+        let domain_weights = self.domain_weights;
         let mesh = &self.grid;
         let Particles {
             x, cell, volume, ..
@@ -310,8 +315,15 @@ impl TlsMapping {
                 for (k, deps) in deps.iter_mut().enumerate() {
                     let p = start + k;
                     let c = cell[p];
-                    let psi = taylor[c].psi(x[p]);
-                    let [work, fit_volume] = &pullbacks[c];
+                    // Through the fits: `sum_e w_pe (d/dr_e) . psi_e(x_p)` over the cells
+                    // whose fits the particle enters.
+                    let (mut through_work, mut through_volume) = (0.0, 0.0);
+                    for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
+                        let psi = taylor[e].psi(x[p]);
+                        let [work, fit_volume] = &pullbacks[e];
+                        through_work += w * dot(&work.rhs, &psi);
+                        through_volume += w * dot(&fit_volume.rhs, &psi);
+                    });
                     let [through_totals, volume_through_totals] = if conservative {
                         [0, 1].map(|load| {
                             through_totals(by_domains, mesh, c, x[p], volume[p], volume[p], |e| {
@@ -321,7 +333,7 @@ impl TlsMapping {
                     } else {
                         [0.0; 2]
                     };
-                    let fitted = dot(&fit_volume.rhs, &psi) + volume_through_totals;
+                    let fitted = through_volume + volume_through_totals;
                     // NaN falls back too.
                     let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
                         fitted
@@ -329,7 +341,7 @@ impl TlsMapping {
                         fallbacks += 1;
                         volume[p]
                     };
-                    *deps = dt * (dot(&work.rhs, &psi) + through_totals) / weight;
+                    *deps = dt * (through_work + through_totals) / weight;
                 }
                 fallbacks
             })
@@ -408,6 +420,7 @@ impl TlsMapping {
             }
         };
         let by_domains = self.totals == CellTotals::Domains;
+        let domain_weights = self.domain_weights;
         let mesh = &self.grid;
         let Particles {
             x,
@@ -427,7 +440,11 @@ impl TlsMapping {
                     let c = cell[p];
                     let through_totals =
                         through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], per_total);
-                    let through_fit = dot(&pullbacks[c][0].rhs, &taylor[c].psi(x[p])) * density[p];
+                    let mut through_fit = 0.0;
+                    for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
+                        through_fit += w * dot(&pullbacks[e][0].rhs, &taylor[e].psi(x[p]));
+                    });
+                    let through_fit = through_fit * density[p];
                     *a = (through_fit + through_totals) / mass[p];
                 }
             });

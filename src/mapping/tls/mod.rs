@@ -84,6 +84,10 @@ pub struct TlsMapping {
     /// `sum_p s_pc V_p sigma_p` (so `int sigma_hat = sum_p V_p sigma_p`), like density and
     /// momentum; else a full least-squares fit (the published method).
     conservative_stress: bool,
+    /// `method.fit_weights = "domains"`: each particle enters the fits of every cell its
+    /// domain overlaps, weighted by the overlapping fraction ([`for_each_fit_point`]);
+    /// else one point of weight 1 in the cell of its centre (the published method).
+    domain_weights: bool,
 }
 
 impl TlsMapping {
@@ -118,6 +122,7 @@ impl TlsMapping {
             adjoint: None,
             momentum_theta: None,
             conservative_stress: false,
+            domain_weights: false,
         })
     }
 
@@ -152,6 +157,16 @@ impl TlsMapping {
     /// weight `V~_p` is its volume, so the step conserves the physical energy.
     pub fn with_conservative_stress(mut self, conservative: bool) -> Self {
         self.conservative_stress = conservative;
+        self
+    }
+
+    /// Weight the particles in the least-squares fits by the share of their domain in each
+    /// cell it overlaps (`method.fit_weights = "domains"`, [`for_each_fit_point`]): a fit
+    /// then changes continuously as a particle crosses a face, where with one point per
+    /// particle in the cell of its centre it jumps. Conservation is unchanged (the fits'
+    /// means are the cell totals either way).
+    pub fn with_domain_weights(mut self, domain_weights: bool) -> Self {
+        self.domain_weights = domain_weights;
         self
     }
 
@@ -195,6 +210,7 @@ impl Mapping for TlsMapping {
     ) {
         let by_domains = self.totals == CellTotals::Domains;
         let conservative_stress = self.conservative_stress;
+        let domain_weights = self.domain_weights;
         self.domains
             .update(&self.grid, particles, bins, !by_domains);
         let (mesh, domains) = (&self.grid, &self.domains);
@@ -219,12 +235,23 @@ impl Mapping for TlsMapping {
                 // Accumulate in locals (registers), store once.
                 let basis = TaylorCell::new(domains.lo[cell], domains.hi[cell]);
                 let mut local = CellSums::default();
-                for p in bins.range(cell) {
+                let points = FitPoints {
+                    grid: mesh,
+                    bins,
+                    x,
+                    volume,
+                    domain_weights,
+                };
+                points.for_each(cell, |p, w, own| {
                     let psi = basis.psi(x[p]);
-                    local.normal.add(&psi);
-                    add_rhs(&mut local.stress_rhs, &psi, stress[p]);
+                    local.normal.add_weighted(&psi, w);
+                    add_rhs(&mut local.stress_rhs, &psi, w * stress[p]);
                     // rho_p = m_p / V_p, carried by the particles.
-                    add_rhs(&mut local.density_rhs, &psi, density[p]);
+                    add_rhs(&mut local.density_rhs, &psi, w * density[p]);
+                    if !own {
+                        // A neighbour's particle: its totals are counted in its own cell.
+                        return;
+                    }
                     if by_domains {
                         add_shares(&mut local.mass_shares, mesh, cell, x[p], volume[p], mass[p]);
                         if conservative_stress {
@@ -242,7 +269,7 @@ impl Mapping for TlsMapping {
                         local.mass_shares[1] += mass[p];
                         local.stress_shares[1] += volume[p] * stress[p];
                     }
-                }
+                });
                 *taylor = basis;
                 *sums = local;
             });
@@ -342,6 +369,7 @@ impl Mapping for TlsMapping {
     ) {
         let by_domains = self.totals == CellTotals::Domains;
         let limited = self.momentum_theta.is_some();
+        let domain_weights = self.domain_weights;
         let (mesh, domains, taylor) = (&self.grid, &self.domains, &self.taylor);
         let (x, mass, volume, density, v) = (
             &particles.x,
@@ -364,10 +392,20 @@ impl Mapping for TlsMapping {
                 }
                 let basis = taylor[cell];
                 let (mut rhs, mut shares, mut energy) = ([0.0; 3], [0.0; 3], [0.0; 3]);
-                for p in bins.range(cell) {
+                let points = FitPoints {
+                    grid: mesh,
+                    bins,
+                    x,
+                    volume,
+                    domain_weights,
+                };
+                points.for_each(cell, |p, w, own| {
                     let psi = basis.psi(x[p]);
+                    add_rhs(&mut rhs, &psi, w * density[p] * v[p]);
+                    if !own {
+                        return;
+                    }
                     let momentum = mass[p] * v[p];
-                    add_rhs(&mut rhs, &psi, density[p] * v[p]);
                     if by_domains {
                         add_shares(&mut shares, mesh, cell, x[p], volume[p], momentum);
                         if limited {
@@ -378,7 +416,7 @@ impl Mapping for TlsMapping {
                         shares[1] += momentum;
                         energy[1] += momentum * v[p];
                     }
-                }
+                });
                 sums.momentum_rhs = rhs;
                 sums.momentum_shares = shares;
                 sums.energy_shares = energy;
@@ -536,6 +574,78 @@ fn add_shares(shares: &mut [f64; 3], grid: &Grid, cell: usize, x: f64, volume: f
     shares[0] += to_left;
     shares[1] += q - to_left - to_right;
     shares[2] += to_right;
+}
+
+/// The data points of the TLS fits (`method.fit_weights`).
+#[derive(Clone, Copy)]
+struct FitPoints<'a> {
+    grid: &'a Grid,
+    bins: &'a CellBins,
+    x: &'a [f64],
+    volume: &'a [f64],
+    domain_weights: bool,
+}
+
+impl FitPoints<'_> {
+    /// Call `f(p, w, own)` for every particle `p` in the fit of `cell` with its weight
+    /// `w`; `own` says that `p` is binned in `cell`. With domain weights these are the
+    /// particles of `cell - 1`, `cell` and `cell + 1` whose domains overlap `cell`, each
+    /// weighted by the overlapping fraction (the shares of [`add_shares`], the same as
+    /// [`for_each_fit_cell`] gives from the particle's side); else the particles of
+    /// `cell`, weight 1.
+    #[inline]
+    fn for_each(&self, cell: usize, mut f: impl FnMut(usize, f64, bool)) {
+        if !self.domain_weights {
+            for p in self.bins.range(cell) {
+                f(p, 1.0, true);
+            }
+            return;
+        }
+        let neighbours = cell.saturating_sub(1)..(cell + 2).min(self.grid.cells);
+        for home in neighbours {
+            for p in self.bins.range(home) {
+                let shares = domain_shares(self.grid, home, self.x[p], self.volume[p]);
+                // The share in `cell`: index 0, 1, 2 for `cell = home - 1, home, home + 1`.
+                let w = shares[cell + 1 - home];
+                if w > 0.0 {
+                    f(p, w, home == cell);
+                }
+            }
+        }
+    }
+}
+
+/// The fractions of the domain `[x - V/2, x + V/2]` of a particle binned in `home` that
+/// lie in `home - 1`, `home`, `home + 1` (they sum to 1).
+#[inline]
+fn domain_shares(grid: &Grid, home: usize, x: f64, volume: f64) -> [f64; 3] {
+    let mut shares = [0.0; 3];
+    add_shares(&mut shares, grid, home, x, volume, 1.0);
+    shares
+}
+
+/// Call `f(cell, w)` for every cell whose fits the particle at `x` with `volume`, binned
+/// in `home`, enters, with its weight there (see [`FitPoints::for_each`]).
+#[inline]
+pub(super) fn for_each_fit_cell(
+    grid: &Grid,
+    domain_weights: bool,
+    home: usize,
+    x: f64,
+    volume: f64,
+    mut f: impl FnMut(usize, f64),
+) {
+    if !domain_weights {
+        f(home, 1.0);
+        return;
+    }
+    let shares = domain_shares(grid, home, x, volume);
+    for (k, &w) in shares.iter().enumerate() {
+        if w > 0.0 {
+            // k = 0, 1, 2: home - 1, home, home + 1 (a share outside the grid is 0).
+            f(home + k - 1, w);
+        }
+    }
 }
 
 pub mod adjoint;

@@ -74,6 +74,7 @@ fn check_conservation<B: Basis>(
     grid: Grid,
     particles: &Particles,
     bins: &CellBins,
+    domain_weights: bool,
 ) -> Result<(), TestCaseError> {
     for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
         for remedy in [
@@ -84,7 +85,8 @@ fn check_conservation<B: Basis>(
                 let mut mapping = TlsMapping::new(grid, 4, remedy, totals_rule)
                     .unwrap()
                     .with_conservative_degree(degree)
-                    .with_momentum_limiter(limiter);
+                    .with_momentum_limiter(limiter)
+                    .with_domain_weights(domain_weights);
                 let ([m_grid, m_matrix, p_grid], [m, p, scale]) =
                     totals(basis, &mut mapping, particles, bins);
                 // The conservative fits stay within their degree.
@@ -122,24 +124,26 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
     /// Mass (lumped and consistent) and momentum mapped by TLS equal the particle
     /// totals to round-off for random layouts with 3+ or 1–2 particles per cell, every
-    /// basis, both cell-total rules, both degenerate-cell remedies and conservative fits of
-    /// degree 0, 1 and 2.
+    /// basis, both cell-total rules, both degenerate-cell remedies, conservative fits of
+    /// degree 0, 1 and 2, and one point per particle or domain-weighted fits.
     #[test]
     fn mapping_conserves_mass_and_momentum(cells in 2usize..10, sparse in any::<bool>(),
                                            counts in prop::collection::vec(0usize..6, 10),
                                            jitter in prop::collection::vec(0.0f64..1.0, 40),
-                                           order in 1usize..4) {
+                                           order in 1usize..4,
+                                           domain_weights in any::<bool>()) {
         let grid = Grid::new(2.0, cells);
         let counts: Vec<usize> = counts[..cells]
             .iter()
             .map(|&c| if sparse { 1 + c % 2 } else { 3 + c })
             .collect();
         let (particles, bins) = layout(&grid, &counts, &jitter);
-        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins)?;
-        check_conservation(&BSplineBasis::new(grid, order).unwrap(), grid, &particles, &bins)?;
+        let weights = domain_weights;
+        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins, weights)?;
+        check_conservation(&BSplineBasis::new(grid, order).unwrap(), grid, &particles, &bins, weights)?;
         let mut ddmpm = DdmpmBasis::new(grid);
         ddmpm.update(ParticleQuadrature { x: &particles.x, volume: &particles.volume, cell_start: &bins.cell_start });
-        check_conservation(&ddmpm, grid, &particles, &bins)?;
+        check_conservation(&ddmpm, grid, &particles, &bins, weights)?;
     }
 
     /// A quadratic stress field sampled at 3+ particles per cell is reconstructed
@@ -264,8 +268,9 @@ proptest! {
     /// acceleration to the TLS momentum, to round-off, for random layouts with empty,
     /// one-particle and full cells, linear and quadratic B-spline bases, both remedies,
     /// both cell-total rules, conservative fits of degree 0, 1 or 2, the full or the
-    /// conservative stress fit, and with or without the kinetic-energy limiter (whose
-    /// `theta` the adjoint takes as fixed).
+    /// conservative stress fit, with or without the kinetic-energy limiter (whose
+    /// `theta` the adjoint takes as fixed), and one point per particle or domain-weighted
+    /// fits.
     #[test]
     fn adjoint_strain_and_acceleration_are_conjugate(
         counts in prop::collection::vec(0usize..5, 8),
@@ -276,6 +281,7 @@ proptest! {
         conservative_stress in any::<bool>(),
         limiter in any::<bool>(),
         particle_velocities in prop::collection::vec(-1.0f64..1.0, 40),
+        domain_weights in any::<bool>(),
     ) {
         let grid = Grid::new(2.0, 8);
         let (mut particles, bins) = layout(&grid, &counts, &jitter);
@@ -293,7 +299,8 @@ proptest! {
                     .with_adjoint(true)
                     .with_conservative_degree(degree)
                     .with_conservative_stress(conservative_stress)
-                    .with_momentum_limiter(limiter);
+                    .with_momentum_limiter(limiter)
+                    .with_domain_weights(domain_weights);
                 let (strain, momentum) = if quadratic {
                     let basis = BSplineBasis::new(grid, 2).unwrap();
                     let v = &velocities[..basis.num_dofs()];
@@ -312,8 +319,8 @@ proptest! {
 
 /// A uniform velocity gradient gives every particle that gradient as its adjoint strain
 /// rate (but the few normalised by `V_p`; none with the conservative stress fit), and a uniform grid acceleration every particle
-/// that acceleration (both remedies, both totals rules, cells of 1 to 4 particles and an
-/// empty one).
+/// that acceleration (both remedies, both totals rules, both fit weightings, cells of 1 to
+/// 4 particles and an empty one).
 #[test]
 fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
     let grid = Grid::new(1.0, 6);
@@ -328,14 +335,18 @@ fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
         .into_iter()
         .flat_map(|t| [(t, false), (t, true)])
     {
-        for remedy in [
+        for (remedy, domain_weights) in [
             DegenerateRemedy::VirtualPoints,
             DegenerateRemedy::OrderReduction,
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|r| [(r, false), (r, true)])
+        {
             let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
                 .unwrap()
                 .with_adjoint(true)
-                .with_conservative_stress(conservative_stress);
+                .with_conservative_stress(conservative_stress)
+                .with_domain_weights(domain_weights);
             let mut fields = GridFields::new(basis.num_dofs());
             mapping.map_mass_and_internal_force(&basis, &particles, &bins, &mut fields);
             mapping.map_momentum(&basis, &particles, &bins, &mut fields);
@@ -362,7 +373,9 @@ fn adjoint_strain_and_acceleration_are_exact_for_uniform_fields() {
                 inexact < particles.len() / 4,
                 "{totals_rule:?} {remedy:?}: {inexact}"
             );
-            assert!(remedies.degenerate_fits > 0);
+            // The layout exercises the remedies (with domain weights the neighbours'
+            // particles enter the sparse cells' fits, which may then be well posed).
+            assert!(domain_weights || remedies.degenerate_fits > 0);
         }
     }
 }
@@ -407,12 +420,16 @@ proptest! {
         for (p, v) in particles.v.iter_mut().enumerate() {
             *v = particle_velocities[p % particle_velocities.len()];
         }
-        for totals_rule in [CellTotals::Centres, CellTotals::Domains] {
+        for (totals_rule, domain_weights) in [CellTotals::Centres, CellTotals::Domains]
+            .into_iter()
+            .flat_map(|t| [(t, false), (t, true)])
+        {
             for remedy in [DegenerateRemedy::VirtualPoints, DegenerateRemedy::OrderReduction] {
                 let mut mapping = TlsMapping::new(grid, 3, remedy, totals_rule)
                     .unwrap()
                     .with_conservative_degree(degree)
-                    .with_momentum_limiter(true);
+                    .with_momentum_limiter(true)
+                    .with_domain_weights(domain_weights);
                 let (grid_energy, particle_energy) = if quadratic {
                     let basis = BSplineBasis::new(grid, 2).unwrap();
                     twice_kinetic_energies(&basis, &mut mapping, &particles, &bins)
@@ -425,7 +442,8 @@ proptest! {
                 );
             }
         }
-        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins)?;
+        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins, false)?;
+        check_conservation(&LinearBasis::new(grid), grid, &particles, &bins, true)?;
     }
 }
 
@@ -472,4 +490,69 @@ fn unlimited_momentum_fits_can_add_kinetic_energy() {
         );
     }
     assert!(gained > 0, "no layout gained energy without the limiter");
+}
+
+/// The grid mass, internal force and momentum of a layout with particle `q` moved to `x`
+/// (re-binned).
+fn fields_with_particle_at(
+    grid: Grid,
+    mapping: &mut TlsMapping,
+    particles: &Particles,
+    q: usize,
+    x: f64,
+) -> Vec<f64> {
+    let mut moved = particles.clone();
+    moved.x[q] = x;
+    moved.cell[q] = grid.cell_of(x).unwrap();
+    let mut bins = CellBins::default();
+    bins.sort(&mut moved, grid.cells);
+    let basis = LinearBasis::new(grid);
+    let mut fields = GridFields::new(basis.num_dofs());
+    mapping.map_mass_and_internal_force(&basis, &moved, &bins, &mut fields);
+    mapping.map_momentum(&basis, &moved, &bins, &mut fields);
+    [fields.mass, fields.internal_force, fields.momentum].concat()
+}
+
+/// With domain weights a particle crossing a face moves every mapped grid quantity
+/// continuously (by about its displacement); with one point per particle in the cell of
+/// its centre the cells' fits jump, and so do the grid values (cells of 3–5 particles, so
+/// that every fit is well posed on both sides).
+#[test]
+fn domain_weighted_fits_change_continuously_across_a_face() {
+    let grid = Grid::new(1.0, 4);
+    let (particles, _) = layout(&grid, &[4, 4, 4, 4], &[0.3, 0.8, 0.1, 0.6, 0.5, 0.9, 0.2]);
+    // The particle of cell 1 nearest to the face with cell 2, moved just across it.
+    let face = grid.cell_left(2);
+    let q = (0..particles.len())
+        .filter(|&p| particles.cell[p] == 1)
+        .max_by(|&a, &b| particles.x[a].total_cmp(&particles.x[b]))
+        .unwrap();
+    let epsilon = 1e-9;
+    for domain_weights in [false, true] {
+        let mut mapping = TlsMapping::new(
+            grid,
+            3,
+            DegenerateRemedy::VirtualPoints,
+            CellTotals::Domains,
+        )
+        .unwrap()
+        .with_domain_weights(domain_weights);
+        let before = fields_with_particle_at(grid, &mut mapping, &particles, q, face - epsilon);
+        let after = fields_with_particle_at(grid, &mut mapping, &particles, q, face + epsilon);
+        let scale = before.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let jump = before
+            .iter()
+            .zip(&after)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+            / scale;
+        if domain_weights {
+            assert!(jump < 1e-6, "domain weights: relative jump {jump:e}");
+        } else {
+            assert!(
+                jump > 1e-3,
+                "one point per particle: relative jump {jump:e}"
+            );
+        }
+    }
 }
