@@ -602,9 +602,16 @@ impl FitPoints<'_> {
             return;
         }
         let neighbours = cell.saturating_sub(1)..(cell + 2).min(self.grid.cells);
+        let (left, right) = (self.grid.cell_left(cell), self.grid.cell_left(cell + 1));
         for home in neighbours {
             for p in self.bins.range(home) {
-                let shares = domain_shares(self.grid, home, self.x[p], self.volume[p]);
+                // A neighbour's particle reaches into `cell` only across the shared face
+                // (`add_shares` clips the half-width to `h`): skip the others cheaply.
+                let (x, reach) = (self.x[p], (0.5 * self.volume[p]).min(self.grid.h));
+                if (home < cell && x + reach <= left) || (home > cell && x - reach >= right) {
+                    continue;
+                }
+                let shares = domain_shares(self.grid, home, x, self.volume[p]);
                 // The share in `cell`: index 0, 1, 2 for `cell = home - 1, home, home + 1`.
                 let w = shares[cell + 1 - home];
                 if w > 0.0 {
