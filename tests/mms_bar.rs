@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{orders, run, scenario, study};
+use common::{orders, rms_errors, run, scenario, study};
 use tlsmpm::problems::Field;
 
 #[test]
@@ -147,19 +147,6 @@ fn imls_with_the_cpdi_basis_converges_at_second_order() {
     }
 }
 
-/// RMS displacement error of each row.
-fn displacement_errors(rows: &[tlsmpm::app::StudyRow]) -> Vec<f64> {
-    rows.iter()
-        .map(|row| {
-            row.fields
-                .iter()
-                .find(|f| f.0 == Field::Displacement)
-                .map(|f| f.1)
-                .expect("displacement in study")
-        })
-        .collect()
-}
-
 #[test]
 fn tls_with_domain_weighted_fits_converges_at_three_particles_per_cell_with_musl() {
     // 3 PPC, MUSL, dt = 1e-5. With one point per particle in the cell of its centre the
@@ -179,7 +166,7 @@ fn tls_with_domain_weighted_fits_converges_at_three_particles_per_cell_with_musl
         ),
         &[32, 64, 128, 256],
     );
-    let errors = displacement_errors(&weighted);
+    let errors = rms_errors(&weighted, Field::Displacement);
     let o = orders(&weighted, Field::Displacement);
     assert!(o[0] > 1.3 && o[1] > 1.7, "orders {o:?} ({errors:?})");
     assert!(
@@ -190,7 +177,7 @@ fn tls_with_domain_weighted_fits_converges_at_three_particles_per_cell_with_musl
         scenario("mms_bar", &["method.reconstruction=tls", "grid.cells=128"]),
         &[128],
     );
-    let published = displacement_errors(&published)[0];
+    let published = rms_errors(&published, Field::Displacement)[0];
     assert!(
         published > 20.0 * errors[2],
         "published {published:e} vs weighted {:e}",

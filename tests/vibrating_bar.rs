@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{by_id, orders, run, scenario, simulate, study};
+use common::{by_id, orders, rms_errors, run, scenario, simulate, study};
 use tlsmpm::problems::Field;
 
 const CELLS: [usize; 4] = [5, 10, 20, 40];
@@ -198,19 +198,6 @@ fn lumped_bsmpm_is_second_order_away_from_the_boundaries() {
     }
 }
 
-/// Displacement RMS error of each row.
-fn displacement_errors(rows: &[tlsmpm::app::StudyRow]) -> Vec<f64> {
-    rows.iter()
-        .map(|row| {
-            row.fields
-                .iter()
-                .find(|f| f.0 == Field::Displacement)
-                .map(|f| f.1)
-                .expect("displacement in study")
-        })
-        .collect()
-}
-
 #[test]
 fn bsmpm_tls_with_consistent_mass_is_third_order_in_displacement_and_velocity() {
     // SPEC §6.2: BSMPM-TLS with a consistent mass matrix. dt = 1e-9 takes the Euler–Cromer
@@ -262,21 +249,30 @@ fn lumped_acceleration_spoils_the_bsmpm_tls_velocity_order() {
 fn mpm_tls_lowers_the_mpm_displacement_error() {
     // Published: about 1.7x (SPEC §6.2). With the consistent velocity mapping the gain is
     // larger (4-5x); with lumped masses TLS changes MPM by well under 1% at 12 ppc.
-    let mpm = displacement_errors(&study(scenario("vibrating_bar", &[]), &CELLS));
-    let tls = displacement_errors(&study(
-        scenario(
-            "vibrating_bar",
-            &[
-                "method.reconstruction=\"tls\"",
-                "method.mass=\"consistent\"",
-            ],
+    let mpm = rms_errors(
+        &study(scenario("vibrating_bar", &[]), &CELLS),
+        Field::Displacement,
+    );
+    let tls = rms_errors(
+        &study(
+            scenario(
+                "vibrating_bar",
+                &[
+                    "method.reconstruction=\"tls\"",
+                    "method.mass=\"consistent\"",
+                ],
+            ),
+            &CELLS,
         ),
-        &CELLS,
-    ));
-    let lumped = displacement_errors(&study(
-        scenario("vibrating_bar", &["method.reconstruction=\"tls\""]),
-        &CELLS,
-    ));
+        Field::Displacement,
+    );
+    let lumped = rms_errors(
+        &study(
+            scenario("vibrating_bar", &["method.reconstruction=\"tls\""]),
+            &CELLS,
+        ),
+        Field::Displacement,
+    );
     for k in 0..CELLS.len() {
         let gain = mpm[k] / tls[k];
         assert!(gain > 1.7, "{} cells: MPM/MPM-TLS {gain}", CELLS[k]);

@@ -63,6 +63,19 @@ pub fn orders(rows: &[StudyRow], field: Field) -> Vec<f64> {
         .collect()
 }
 
+/// RMS error of `field` in each row.
+pub fn rms_errors(rows: &[StudyRow], field: Field) -> Vec<f64> {
+    rows.iter()
+        .map(|row| {
+            row.fields
+                .iter()
+                .find(|f| f.0 == field)
+                .map(|f| f.1)
+                .expect("field in study")
+        })
+        .collect()
+}
+
 /// A rayon pool of `threads` threads.
 pub fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()

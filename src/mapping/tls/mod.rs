@@ -20,6 +20,12 @@
 //! integrates. The results are flat `[N_e][3]` coefficient arrays per field. The momentum
 //! mapping reuses `D` (same positions) with its own right-hand side.
 //!
+//! **Fit weights** (`method.fit_weights`): each particle is one point of weight 1 in the
+//! fits of the cell of its centre (`"points"`, published), or a point in every cell its
+//! domain `x_p ± V_p/2` overlaps, weighted by the overlapping fraction (`"domains"`,
+//! [`FitPoints`]): then `D = sum_p w_pc psi psi^T` and the fits change continuously when a
+//! particle crosses a face (docs/reconstruction.md "Domain-weighted fits").
+//!
 //! **Degenerate cells** (fewer points than unknowns, or a condition number of the block
 //! not well posed, see [`crate::numerics::taylor`]): with `method.degenerate_cells = "virtual_points"` (default) the
 //! reconstructions of the well-posed neighbouring cells are evaluated at the shared faces
@@ -210,7 +216,6 @@ impl Mapping for TlsMapping {
     ) {
         let by_domains = self.totals == CellTotals::Domains;
         let conservative_stress = self.conservative_stress;
-        let domain_weights = self.domain_weights;
         self.domains
             .update(&self.grid, particles, bins, !by_domains);
         let (mesh, domains) = (&self.grid, &self.domains);
@@ -221,6 +226,7 @@ impl Mapping for TlsMapping {
             &particles.volume,
             &particles.density,
         );
+        let points = FitPoints::new(mesh, bins, particles, self.domain_weights);
         // Pass 1: normal matrices, right-hand sides, mass shares.
         self.taylor
             .par_iter_mut()
@@ -235,13 +241,6 @@ impl Mapping for TlsMapping {
                 // Accumulate in locals (registers), store once.
                 let basis = TaylorCell::new(domains.lo[cell], domains.hi[cell]);
                 let mut local = CellSums::default();
-                let points = FitPoints {
-                    grid: mesh,
-                    bins,
-                    x,
-                    volume,
-                    domain_weights,
-                };
                 points.for_each(cell, |p, w, own| {
                     let psi = basis.psi(x[p]);
                     local.normal.add_weighted(&psi, w);
@@ -369,7 +368,6 @@ impl Mapping for TlsMapping {
     ) {
         let by_domains = self.totals == CellTotals::Domains;
         let limited = self.momentum_theta.is_some();
-        let domain_weights = self.domain_weights;
         let (mesh, domains, taylor) = (&self.grid, &self.domains, &self.taylor);
         let (x, mass, volume, density, v) = (
             &particles.x,
@@ -378,6 +376,7 @@ impl Mapping for TlsMapping {
             &particles.density,
             &particles.v,
         );
+        let points = FitPoints::new(mesh, bins, particles, self.domain_weights);
         // Pass 1: right-hand sides and momentum shares (D is still valid).
         self.sums
             .par_iter_mut()
@@ -392,13 +391,6 @@ impl Mapping for TlsMapping {
                 }
                 let basis = taylor[cell];
                 let (mut rhs, mut shares, mut energy) = ([0.0; 3], [0.0; 3], [0.0; 3]);
-                let points = FitPoints {
-                    grid: mesh,
-                    bins,
-                    x,
-                    volume,
-                    domain_weights,
-                };
                 points.for_each(cell, |p, w, own| {
                     let psi = basis.psi(x[p]);
                     add_rhs(&mut rhs, &psi, w * density[p] * v[p]);
@@ -586,7 +578,23 @@ struct FitPoints<'a> {
     domain_weights: bool,
 }
 
-impl FitPoints<'_> {
+impl<'a> FitPoints<'a> {
+    /// The fit points of `particles` (binned by `bins`) on `grid`.
+    fn new(
+        grid: &'a Grid,
+        bins: &'a CellBins,
+        particles: &'a Particles,
+        domain_weights: bool,
+    ) -> Self {
+        Self {
+            grid,
+            bins,
+            x: &particles.x,
+            volume: &particles.volume,
+            domain_weights,
+        }
+    }
+
     /// Call `f(p, w, own)` for every particle `p` in the fit of `cell` with its weight
     /// `w`; `own` says that `p` is binned in `cell`. With domain weights these are the
     /// particles of `cell - 1`, `cell` and `cell + 1` whose domains overlap `cell`, each
@@ -613,8 +621,9 @@ impl FitPoints<'_> {
                 }
                 let shares = domain_shares(self.grid, home, x, self.volume[p]);
                 // The share in `cell`: index 0, 1, 2 for `cell = home - 1, home, home + 1`.
+                // A particle of `cell` is always visited: its totals are counted there.
                 let w = shares[cell + 1 - home];
-                if w > 0.0 {
+                if w > 0.0 || home == cell {
                     f(p, w, home == cell);
                 }
             }
