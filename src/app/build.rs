@@ -6,8 +6,8 @@
 
 use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{
-    BasisKind, FitWeights, MassKind, MaterialModel, MomentumLimiter, ParticleAcceleration,
-    ReconstructionKind, Scenario, StrainKind, StressFit,
+    AdjointMass, BasisKind, FitWeights, MassKind, MaterialModel, MomentumLimiter,
+    ParticleAcceleration, ReconstructionKind, Scenario, StrainKind, StressFit,
 };
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
@@ -103,7 +103,10 @@ pub fn build_simulation(
                         method.momentum_limiter() == MomentumLimiter::KineticEnergy,
                     )
                     .with_conservative_stress(method.stress_fit() == StressFit::Conservative)
-                    .with_domain_weights(method.fit_weights() == FitWeights::Domains);
+                    .with_domain_weights(method.fit_weights() == FitWeights::Domains)
+                    .with_consistent_particle_mass(
+                        method.adjoint_mass() == AdjointMass::Consistent,
+                    );
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

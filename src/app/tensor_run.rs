@@ -449,6 +449,7 @@ fn remedies_over_ranks(
         local.density_limited_fits,
         local.strain_fallbacks,
         local.momentum_limited_fits,
+        local.limited_consistent_cells,
     ];
     // Counts are exact in f64 below 2^53.
     let total = exchange.sum_over_ranks(&counts.map(|c| c as f64))?;
@@ -460,6 +461,7 @@ fn remedies_over_ranks(
         density_limited_fits: count(3),
         strain_fallbacks: count(4),
         momentum_limited_fits: count(5),
+        limited_consistent_cells: count(6),
     })
 }
 

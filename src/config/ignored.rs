@@ -8,7 +8,7 @@
 
 use super::schema::{
     BasisKind, MassKind, MaterialModel, ProblemKind, ReconstructionKind, ReferenceKind, Scenario,
-    SolverKind,
+    SolverKind, StrainKind,
 };
 use super::toml_value;
 use std::collections::BTreeMap;
@@ -119,7 +119,16 @@ impl Scenario {
         let only_problem =
             |name: &str| format!("only used by problem.kind = \"{name}\" ({problem})");
         // (keys, ignored, why: the choice that makes them meaningless).
-        let rules: [(&[&str], bool, String); 10] = [
+        let rules: [(&[&str], bool, String); 11] = [
+            (
+                &["method.adjoint_mass"],
+                method.reconstruction == ReconstructionKind::Tls
+                    && method.strain(two_phase) != StrainKind::Adjoint,
+                format!(
+                    "only used by method.strain = \"adjoint\" (method.strain = \"{}\")",
+                    method.strain(two_phase).name()
+                ),
+            ),
             (
                 &["method.order"],
                 method.basis != BasisKind::Bspline,
@@ -143,6 +152,7 @@ impl Scenario {
                     "method.momentum_limiter",
                     "method.stress_fit",
                     "method.fit_weights",
+                    "method.adjoint_mass",
                 ],
                 method.reconstruction != ReconstructionKind::Tls,
                 only_tls,

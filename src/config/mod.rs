@@ -221,12 +221,40 @@ end = 1.9e-6
             ("method.stress_fit", "conservative"),
             ("method.momentum_limiter", "kinetic_energy"),
             ("method.fit_weights", "domains"),
+            ("method.adjoint_mass", "consistent"),
         ];
         // Defaults: the published fit, no limiter, one point per particle.
         let tls = with(BAR, &["method.reconstruction=tls"]).unwrap();
         assert_eq!(tls.method.stress_fit(), StressFit::Full);
         assert_eq!(tls.method.momentum_limiter(), MomentumLimiter::None);
         assert_eq!(tls.method.fit_weights(), FitWeights::Points);
+        assert_eq!(tls.method.adjoint_mass(), AdjointMass::Lumped);
+        // With TLS but the gradient strain: a warning naming the key.
+        let gradient = with(
+            BAR,
+            &[
+                "method.reconstruction=tls",
+                "method.adjoint_mass=consistent",
+            ],
+        )
+        .unwrap();
+        let warnings = gradient.ignored_key_warnings();
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.starts_with("method.adjoint_mass") && w.contains("method.strain")),
+            "{warnings:?}"
+        );
+        let adjoint = with(
+            BAR,
+            &[
+                "method.reconstruction=tls",
+                "method.strain=adjoint",
+                "method.adjoint_mass=consistent",
+            ],
+        )
+        .unwrap();
+        assert!(adjoint.ignored_key_warnings().is_empty());
         // Without TLS: a warning naming the key.
         let imls = with(
             BAR,

@@ -478,6 +478,10 @@ pub struct MethodConfig {
     /// [`MethodConfig::fit_weights`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit_weights: Option<FitWeights>,
+    /// The particle mass of the adjoint TLS acceleration (1D). Default: see
+    /// [`MethodConfig::adjoint_mass`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adjoint_mass: Option<AdjointMass>,
     /// How MLS / IMLS (linear basis, 1D) accelerate the particles. Default: see
     /// [`MethodConfig::particle_acceleration`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -510,6 +514,19 @@ pub enum FitWeights {
     /// `method.cell_totals = "domains"`): the fits then change continuously when a particle
     /// crosses a face, instead of jumping.
     Domains,
+}
+
+/// `method.adjoint_mass`: the particle mass of the adjoint TLS acceleration
+/// (`method.strain = "adjoint"`, 1D), `a = W^{-1} P^T a_grid`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AdjointMass {
+    /// `W = diag(m_p)`: exact for a uniform acceleration, first order in `h` for others.
+    Lumped,
+    /// Per cell, the particle masses plus a symmetric rank-2 term with the same row sums
+    /// that makes `W` exact for linear accelerations (up to the cell's first-moment
+    /// defect); momentum and the neutral frozen step are kept.
+    Consistent,
 }
 
 /// `method.stress_fit`: how TLS fits the particle stresses in a cell.
@@ -628,6 +645,7 @@ impl Default for MethodConfig {
             momentum_limiter: None,
             stress_fit: None,
             fit_weights: None,
+            adjoint_mass: None,
             particle_acceleration: None,
         }
     }
@@ -667,6 +685,11 @@ impl MethodConfig {
     /// centre (the published TLS fits).
     pub fn fit_weights(&self) -> FitWeights {
         self.fit_weights.unwrap_or(FitWeights::Points)
+    }
+
+    /// `method.adjoint_mass` if given, else the particle masses.
+    pub fn adjoint_mass(&self) -> AdjointMass {
+        self.adjoint_mass.unwrap_or(AdjointMass::Lumped)
     }
 
     /// `method.momentum_limiter` if given, else none (the published TLS fits).

@@ -262,6 +262,13 @@ impl Scenario {
                 "the domain-weighted TLS fits",
             );
         }
+        if self.method.adjoint_mass == Some(AdjointMass::Consistent) {
+            return one_d_only(
+                "method.adjoint_mass",
+                "\"consistent\"",
+                "the consistent particle mass of the adjoint TLS acceleration",
+            );
+        }
         if self.method.stress_fit == Some(StressFit::Conservative) {
             return one_d_only(
                 "method.stress_fit",

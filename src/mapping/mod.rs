@@ -97,6 +97,12 @@ pub struct RemedyCounts {
     /// written when zero).
     #[serde(skip_serializing_if = "is_zero")]
     pub momentum_limited_fits: u64,
+    /// Cells of two particles or more, summed over the strain and acceleration passes of
+    /// every step, whose consistent particle metric (TLS, `method.adjoint_mass =
+    /// "consistent"`) was scaled towards the lumped one to stay within 1% of it (not
+    /// written when zero).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub limited_consistent_cells: u64,
 }
 
 fn is_zero(count: &u64) -> bool {
@@ -132,6 +138,7 @@ impl std::ops::AddAssign for RemedyCounts {
         self.density_limited_fits += other.density_limited_fits;
         self.momentum_limited_fits += other.momentum_limited_fits;
         self.strain_fallbacks += other.strain_fallbacks;
+        self.limited_consistent_cells += other.limited_consistent_cells;
     }
 }
 

@@ -173,6 +173,7 @@ mod tests {
         adjoint: bool,
         conservative_stress: bool,
         domain_weights: bool,
+        consistent_mass: bool,
     ) -> Vec<(CellTotals, DegenerateRemedy, usize, f64)> {
         let mut table = Vec::new();
         for totals in [CellTotals::Domains, CellTotals::Centres] {
@@ -187,7 +188,8 @@ mod tests {
                             .expect("3-point rule")
                             .with_adjoint(adjoint)
                             .with_conservative_stress(conservative_stress)
-                            .with_domain_weights(domain_weights);
+                            .with_domain_weights(domain_weights)
+                            .with_consistent_particle_mass(consistent_mass);
                         let (growth, _) =
                             frozen_spectrum_of(mapping, 16, per_cell, amplitude, phase);
                         worst = worst.max(growth);
@@ -195,7 +197,8 @@ mod tests {
                     println!(
                         "{totals:?} {remedy:?} {per_cell} PPC adjoint {adjoint} \
                          conservative stress {conservative_stress} \
-                         domain weights {domain_weights}: {worst:.2e}"
+                         domain weights {domain_weights} \
+                         consistent mass {consistent_mass}: {worst:.2e}"
                     );
                     table.push((totals, remedy, per_cell, worst));
                 }
@@ -207,23 +210,31 @@ mod tests {
     #[test]
     fn tls_with_the_adjoint_strain_and_acceleration_has_no_growing_mode() {
         // Every totals rule, remedy and particle count, with the full or the conservative
-        // stress fit, one point per particle or domain-weighted fits: max Re <= 1e-12 c/L
-        // (measured ~1e-15); the gradient strain grows in some of the same
-        // configurations, with either stress fit and either weighting.
-        for (conservative_stress, domain_weights) in
-            [(false, false), (true, false), (false, true), (true, true)]
-        {
+        // stress fit, one point per particle or domain-weighted fits, lumped or consistent
+        // particle metric: max Re <= 1e-12 c/L (measured ~1e-15); the gradient strain
+        // grows in some of the same configurations, with either stress fit and either
+        // weighting.
+        for (conservative_stress, domain_weights, consistent_mass) in [
+            (false, false, false),
+            (true, false, false),
+            (false, true, false),
+            (true, true, false),
+            (false, false, true),
+            (false, true, true),
+        ] {
             for (totals, remedy, per_cell, growth) in
-                tls_growth(true, conservative_stress, domain_weights)
+                tls_growth(true, conservative_stress, domain_weights, consistent_mass)
             {
                 assert!(
                     growth <= 1e-12,
                     "{totals:?} {remedy:?} {per_cell} PPC {conservative_stress} \
-                     {domain_weights}: {growth:e}"
+                     {domain_weights} {consistent_mass}: {growth:e}"
                 );
             }
-            let gradient = tls_growth(false, conservative_stress, domain_weights);
-            assert!(gradient.iter().any(|row| row.3 > 0.1), "{gradient:?}");
+            if !consistent_mass {
+                let gradient = tls_growth(false, conservative_stress, domain_weights, false);
+                assert!(gradient.iter().any(|row| row.3 > 0.1), "{gradient:?}");
+            }
         }
     }
 

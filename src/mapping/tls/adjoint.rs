@@ -36,9 +36,14 @@
 //! little, even negative, weight) is normalised by `V_p` instead (counted as
 //! `strain_fallbacks`): any positive weight keeps the conjugacy, so the step stays neutral;
 //! only that particle's strain under a uniform gradient is then not exact.
+//!
+//! Dividing by `m_p` and `V~_p` is a diagonal particle metric, exact for uniform fields
+//! only (first order in `h` for others); `method.adjoint_mass = "consistent"` replaces it
+//! by the consistent metric of [`super::particle_mass`], exact for linear fields.
 
 use super::{
-    add_shares, for_each_fit_cell, FieldFit, FitContext, FitState, TlsMapping, CELLS_PER_TASK,
+    add_shares, for_each_fit_cell, particle_mass, FieldFit, FitContext, FitState, TlsMapping,
+    CELLS_PER_TASK,
 };
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
@@ -64,13 +69,24 @@ pub(super) struct Pullback {
 /// power and the volume load; acceleration: the work).
 #[derive(Clone, Debug, Default)]
 pub(super) struct AdjointScratch {
-    strain_loads: Vec<[[f64; 3]; 2]>,
-    strain_pullbacks: Vec<[Pullback; 2]>,
-    momentum_loads: Vec<[[f64; 3]; 1]>,
-    momentum_pullbacks: Vec<[Pullback; 1]>,
-    /// Kinetic-energy limiter: per cell, `(1 - theta) A_c . rho_hat_c / rho_1`, the
-    /// derivative of the blended part's work by the cell's mean momentum density.
-    mean_velocity_loads: Vec<f64>,
+    /// Per cell: the power, the volume load and (with the consistent particle metric) the
+    /// power of the velocity gradient field `dv(x) = x`.
+    strain_loads: Vec<[[f64; 3]; 3]>,
+    strain_pullbacks: Vec<[Pullback; 3]>,
+    /// Per cell, the work of the grid accelerations and (with the consistent particle
+    /// mass) of the field `a(x) = x`.
+    momentum_loads: Vec<[[f64; 3]; 2]>,
+    momentum_pullbacks: Vec<[Pullback; 2]>,
+    /// Kinetic-energy limiter: per cell and load, `(1 - theta) A_c . rho_hat_c / rho_1`,
+    /// the derivative of the blended part's work by the cell's mean momentum density.
+    mean_velocity_loads: Vec<[f64; 2]>,
+    /// Consistent particle mass: per particle, the pull-backs `P^T a` and `P^T x`, and per
+    /// cell the Woodbury data ([`particle_mass`]).
+    particle_force: Vec<f64>,
+    particle_linear: Vec<f64>,
+    /// The strain's particle weights `V~_p` (consistent metric only).
+    particle_weight: Vec<f64>,
+    corrections: Vec<Option<particle_mass::CellCorrection>>,
 }
 
 #[inline]
@@ -263,20 +279,33 @@ impl TlsMapping {
         let mut scratch = self.adjoint.take().unwrap_or_default();
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
+        let consistent = self.consistent_particle_mass;
         scratch.strain_loads.clear();
-        scratch.strain_loads.resize(cells, [[0.0; 3]; 2]);
+        scratch.strain_loads.resize(cells, [[0.0; 3]; 3]);
         scratch
             .strain_loads
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, [load, volume_load])| {
+            .for_each(|(cell, [load, volume_load, linear_load])| {
+                if !consistent {
+                    points.for_each_shape(basis, domains, cell, |x, w, shape| {
+                        let psi = taylor[cell].psi(x);
+                        let power = w * shape.gradient(velocity);
+                        for j in 0..3 {
+                            load[j] += power * psi[j];
+                            volume_load[j] += w * psi[j];
+                        }
+                    });
+                    return;
+                }
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let power = w * shape.gradient(velocity);
                     for j in 0..3 {
                         load[j] += power * psi[j];
                         volume_load[j] += w * psi[j];
+                        linear_load[j] += w * x * psi[j];
                     }
                 });
             });
@@ -305,47 +334,123 @@ impl TlsMapping {
         let Particles {
             x, cell, volume, ..
         } = particles;
+        // With the consistent metric, per particle: `d/dsigma_p` of the power, the fit
+        // volume `V~_p` (or `V_p` where it is too small: a fallback) and `d/dsigma_p` of the
+        // power of `dv(x) = x`.
+        let pull_back_particle = |p: usize| {
+            let c = cell[p];
+            // Through the fits: `sum_e w_pe (d/dr_e) . psi_e(x_p)` over the cells whose fits
+            // the particle enters.
+            let mut through_fits = [0.0; 3];
+            for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
+                let psi = taylor[e].psi(x[p]);
+                for (through, pullback) in through_fits.iter_mut().zip(&pullbacks[e]) {
+                    *through += w * dot(&pullback.rhs, &psi);
+                }
+            });
+            let mut pulled = [0.0; 3];
+            for load in 0..3 {
+                let through_totals = if conservative {
+                    through_totals(by_domains, mesh, c, x[p], volume[p], volume[p], |e| {
+                        per_total(e, load)
+                    })
+                } else {
+                    0.0
+                };
+                pulled[load] = through_fits[load] + through_totals;
+            }
+            // NaN falls back too.
+            let fitted_enough = pulled[1] > MIN_FIT_VOLUME * volume[p];
+            let fallback = !fitted_enough;
+            if fallback {
+                pulled[1] = volume[p];
+            }
+            (pulled, fallback)
+        };
         deps.resize(x.len(), 0.0);
-        let fallbacks: u64 = deps
+        if !consistent {
+            let fallbacks: u64 = deps
+                .par_chunks_mut(PARTICLES_PER_TASK)
+                .enumerate()
+                .map(|(chunk, deps)| {
+                    let start = chunk * PARTICLES_PER_TASK;
+                    let mut fallbacks = 0;
+                    for (k, deps) in deps.iter_mut().enumerate() {
+                        let p = start + k;
+                        let c = cell[p];
+                        // Through the fits: `sum_e w_pe (d/dr_e) . psi_e(x_p)` over the cells
+                        // whose fits the particle enters.
+                        let (mut through_work, mut through_volume) = (0.0, 0.0);
+                        for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
+                            let psi = taylor[e].psi(x[p]);
+                            let [work, fit_volume, _] = &pullbacks[e];
+                            through_work += w * dot(&work.rhs, &psi);
+                            through_volume += w * dot(&fit_volume.rhs, &psi);
+                        });
+                        let [through_totals, volume_through_totals] = if conservative {
+                            [0, 1].map(|load| {
+                                through_totals(
+                                    by_domains,
+                                    mesh,
+                                    c,
+                                    x[p],
+                                    volume[p],
+                                    volume[p],
+                                    |e| per_total(e, load),
+                                )
+                            })
+                        } else {
+                            [0.0; 2]
+                        };
+                        let fitted = through_volume + volume_through_totals;
+                        // NaN falls back too.
+                        let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
+                            fitted
+                        } else {
+                            fallbacks += 1;
+                            volume[p]
+                        };
+                        *deps = dt * (through_work + through_totals) / weight;
+                    }
+                    fallbacks
+                })
+                .sum();
+            self.remedies.strain_fallbacks += fallbacks;
+            self.adjoint = Some(scratch);
+            return;
+        }
+        let work = &mut scratch.particle_force;
+        let (weight, linear) = (&mut scratch.particle_weight, &mut scratch.particle_linear);
+        for field in [&mut *work, &mut *weight, &mut *linear] {
+            field.resize(x.len(), 0.0);
+        }
+        let fallbacks: u64 = work
             .par_chunks_mut(PARTICLES_PER_TASK)
+            .zip(weight.par_chunks_mut(PARTICLES_PER_TASK))
+            .zip(linear.par_chunks_mut(PARTICLES_PER_TASK))
             .enumerate()
-            .map(|(chunk, deps)| {
+            .map(|(chunk, ((work, weight), linear))| {
                 let start = chunk * PARTICLES_PER_TASK;
                 let mut fallbacks = 0;
-                for (k, deps) in deps.iter_mut().enumerate() {
-                    let p = start + k;
-                    let c = cell[p];
-                    // Through the fits: `sum_e w_pe (d/dr_e) . psi_e(x_p)` over the cells
-                    // whose fits the particle enters.
-                    let (mut through_work, mut through_volume) = (0.0, 0.0);
-                    for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
-                        let psi = taylor[e].psi(x[p]);
-                        let [work, fit_volume] = &pullbacks[e];
-                        through_work += w * dot(&work.rhs, &psi);
-                        through_volume += w * dot(&fit_volume.rhs, &psi);
-                    });
-                    let [through_totals, volume_through_totals] = if conservative {
-                        [0, 1].map(|load| {
-                            through_totals(by_domains, mesh, c, x[p], volume[p], volume[p], |e| {
-                                per_total(e, load)
-                            })
-                        })
-                    } else {
-                        [0.0; 2]
-                    };
-                    let fitted = through_volume + volume_through_totals;
-                    // NaN falls back too.
-                    let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
-                        fitted
-                    } else {
-                        fallbacks += 1;
-                        volume[p]
-                    };
-                    *deps = dt * (through_work + through_totals) / weight;
+                for k in 0..work.len() {
+                    let ([w, v, l], fallback) = pull_back_particle(start + k);
+                    fallbacks += u64::from(fallback);
+                    (work[k], weight[k], linear[k]) = (w, v, l);
                 }
                 fallbacks
             })
             .sum();
+        self.remedies.limited_consistent_cells += particle_mass::consistent_accelerations(
+            cells,
+            cell,
+            x,
+            &scratch.particle_weight,
+            &scratch.particle_force,
+            &scratch.particle_linear,
+            &mut scratch.corrections,
+            deps,
+        );
+        deps.par_iter_mut().for_each(|deps| *deps *= dt);
         self.remedies.strain_fallbacks += fallbacks;
         self.adjoint = Some(scratch);
     }
@@ -362,19 +467,31 @@ impl TlsMapping {
         let mut scratch = self.adjoint.take().unwrap_or_default();
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
+        let consistent = self.consistent_particle_mass;
         scratch.momentum_loads.clear();
-        scratch.momentum_loads.resize(cells, [[0.0; 3]]);
+        scratch.momentum_loads.resize(cells, [[0.0; 3]; 2]);
         scratch
             .momentum_loads
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, [load])| {
+            .for_each(|(cell, [load, linear_load])| {
+                if !consistent {
+                    points.for_each_shape(basis, domains, cell, |x, w, shape| {
+                        let psi = taylor[cell].psi(x);
+                        let work = w * shape.interpolate(acceleration);
+                        for j in 0..3 {
+                            load[j] += work * psi[j];
+                        }
+                    });
+                    return;
+                }
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let work = w * shape.interpolate(acceleration);
                     for j in 0..3 {
                         load[j] += work * psi[j];
+                        linear_load[j] += w * x * psi[j];
                     }
                 });
             });
@@ -382,7 +499,7 @@ impl TlsMapping {
         // `theta alpha_c + (1 - theta) (a_1 / rho_1) rho_hat_c`: the fit's part takes the
         // load scaled by `theta`, the blended part depends on the mean `a_1` only.
         scratch.mean_velocity_loads.clear();
-        scratch.mean_velocity_loads.resize(cells, 0.0);
+        scratch.mean_velocity_loads.resize(cells, [0.0; 2]);
         if let Some(theta) = &self.momentum_theta {
             let density = &self.density.coefficients;
             scratch
@@ -392,14 +509,16 @@ impl TlsMapping {
                 .with_min_len(CELLS_PER_TASK)
                 .enumerate()
                 .filter(|(cell, _)| theta[*cell] < 1.0)
-                .for_each(|(cell, ([load], mean_load))| {
-                    // A cell without mass has no momentum: no blended part.
-                    if density[cell][0] > 0.0 {
-                        *mean_load =
-                            (1.0 - theta[cell]) * dot(load, &density[cell]) / density[cell][0];
-                    }
-                    for l in load.iter_mut() {
-                        *l *= theta[cell];
+                .for_each(|(cell, (loads, mean_loads))| {
+                    for (load, mean_load) in loads.iter_mut().zip(mean_loads) {
+                        // A cell without mass has no momentum: no blended part.
+                        if density[cell][0] > 0.0 {
+                            *mean_load =
+                                (1.0 - theta[cell]) * dot(load, &density[cell]) / density[cell][0];
+                        }
+                        for l in load.iter_mut() {
+                            *l *= theta[cell];
+                        }
                     }
                 });
         }
@@ -412,9 +531,9 @@ impl TlsMapping {
         );
         // `d a_1 / d t_c = 1 / |e_c|`.
         let (pullbacks, mean_loads) = (&scratch.momentum_pullbacks, &scratch.mean_velocity_loads);
-        let per_total = |c: usize| {
+        let per_total = |c: usize, load: usize| {
             if domains.is_active(c) {
-                (pullbacks[c][0].fixed_mean + mean_loads[c]) / domains.length(c)
+                (pullbacks[c][load].fixed_mean + mean_loads[c][load]) / domains.length(c)
             } else {
                 0.0
             }
@@ -430,24 +549,75 @@ impl TlsMapping {
             density,
             ..
         } = particles;
-        out.resize(x.len(), 0.0);
-        out.par_chunks_mut(PARTICLES_PER_TASK)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                let start = chunk * PARTICLES_PER_TASK;
-                for (k, a) in out.iter_mut().enumerate() {
-                    let p = start + k;
-                    let c = cell[p];
-                    let through_totals =
-                        through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], per_total);
-                    let mut through_fit = 0.0;
-                    for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
-                        through_fit += w * dot(&pullbacks[e][0].rhs, &taylor[e].psi(x[p]));
-                    });
-                    let through_fit = through_fit * density[p];
-                    *a = (through_fit + through_totals) / mass[p];
+        // `d/dv_p` of the work of load `load`: through the fits and the conserved totals.
+        // With the consistent metric, `d/dv_p` of the work of both loads: through the fits
+        // and the conserved totals.
+        let pull_back_particle = |p: usize| {
+            let c = cell[p];
+            let mut through_fits = [0.0; 2];
+            for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
+                let psi = taylor[e].psi(x[p]);
+                for (through, pullback) in through_fits.iter_mut().zip(&pullbacks[e]) {
+                    *through += w * dot(&pullback.rhs, &psi);
                 }
             });
+            let mut pulled = [0.0; 2];
+            for load in 0..2 {
+                let through_totals =
+                    through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], |e| {
+                        per_total(e, load)
+                    });
+                pulled[load] = through_fits[load] * density[p] + through_totals;
+            }
+            pulled
+        };
+        out.resize(x.len(), 0.0);
+        if !consistent {
+            out.par_chunks_mut(PARTICLES_PER_TASK)
+                .enumerate()
+                .for_each(|(chunk, out)| {
+                    let start = chunk * PARTICLES_PER_TASK;
+                    for (k, a) in out.iter_mut().enumerate() {
+                        let p = start + k;
+                        let c = cell[p];
+                        let through_totals =
+                            through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], |e| {
+                                per_total(e, 0)
+                            });
+                        let mut through_fit = 0.0;
+                        for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
+                            through_fit += w * dot(&pullbacks[e][0].rhs, &taylor[e].psi(x[p]));
+                        });
+                        let through_fit = through_fit * density[p];
+                        *a = (through_fit + through_totals) / mass[p];
+                    }
+                });
+            self.adjoint = Some(scratch);
+            return;
+        }
+        let (force, linear) = (&mut scratch.particle_force, &mut scratch.particle_linear);
+        force.resize(x.len(), 0.0);
+        linear.resize(x.len(), 0.0);
+        force
+            .par_chunks_mut(PARTICLES_PER_TASK)
+            .zip(linear.par_chunks_mut(PARTICLES_PER_TASK))
+            .enumerate()
+            .for_each(|(chunk, (force, linear))| {
+                let start = chunk * PARTICLES_PER_TASK;
+                for (k, (f, l)) in force.iter_mut().zip(linear.iter_mut()).enumerate() {
+                    [*f, *l] = pull_back_particle(start + k);
+                }
+            });
+        self.remedies.limited_consistent_cells += particle_mass::consistent_accelerations(
+            cells,
+            cell,
+            x,
+            mass,
+            &scratch.particle_force,
+            &scratch.particle_linear,
+            &mut scratch.corrections,
+            out,
+        );
         self.adjoint = Some(scratch);
     }
 }

@@ -94,6 +94,10 @@ pub struct TlsMapping {
     /// domain overlaps, weighted by the overlapping fraction ([`for_each_fit_point`]);
     /// else one point of weight 1 in the cell of its centre (the published method).
     domain_weights: bool,
+    /// `method.adjoint_mass = "consistent"`: the adjoint acceleration solves with the
+    /// consistent particle mass ([`particle_mass`]), exact for linear accelerations; else
+    /// with the particle masses.
+    consistent_particle_mass: bool,
 }
 
 impl TlsMapping {
@@ -129,6 +133,7 @@ impl TlsMapping {
             momentum_theta: None,
             conservative_stress: false,
             domain_weights: false,
+            consistent_particle_mass: false,
         })
     }
 
@@ -173,6 +178,16 @@ impl TlsMapping {
     /// means are the cell totals either way).
     pub fn with_domain_weights(mut self, domain_weights: bool) -> Self {
         self.domain_weights = domain_weights;
+        self
+    }
+
+    /// With `consistent`, the adjoint particle acceleration (`method.strain = "adjoint"`)
+    /// is `W^{-1} P^T a` with the consistent particle mass `W` of [`particle_mass`]
+    /// (`method.adjoint_mass = "consistent"`): exact for linear accelerations where the
+    /// lumped `diag(m_p)` is exact for uniform ones only; momentum and the neutral frozen
+    /// step are kept.
+    pub fn with_consistent_particle_mass(mut self, consistent: bool) -> Self {
+        self.consistent_particle_mass = consistent;
         self
     }
 
@@ -666,5 +681,6 @@ pub(super) fn for_each_fit_cell(
 
 pub mod adjoint;
 mod fit;
+mod particle_mass;
 #[cfg(test)]
 mod tests;
