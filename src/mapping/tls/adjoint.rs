@@ -47,7 +47,7 @@ use super::{
 };
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
-use crate::numerics::taylor::{solve, solve_reduced_from, FitKind, NormalMatrix};
+use crate::numerics::taylor::{solve, solve_reduced_from, FitKind, NormalMatrix, TaylorCell};
 use crate::particles::Particles;
 use rayon::prelude::*;
 
@@ -122,6 +122,27 @@ fn through_totals(
         0.0
     };
     shares[0] * left + shares[1] * per_total(c) + shares[2] * right
+}
+
+/// `sum_e w_pe (d/dr_e) . psi_e(x_p)` for each of the `K` loads: the derivatives, through
+/// the fits of the cells that particle `p` (in cell `c`, at `x`, of volume `volume`)
+/// enters, of the loads' work by the particle's datum.
+#[inline]
+fn through_fits<const K: usize>(
+    mesh: &Grid,
+    domain_weights: bool,
+    taylor: &[TaylorCell],
+    pullbacks: &[[Pullback; K]],
+    (c, x, volume): (usize, f64, f64),
+) -> [f64; K] {
+    let mut through = [0.0; K];
+    for_each_fit_cell(mesh, domain_weights, c, x, volume, |e, w| {
+        let psi = taylor[e].psi(x);
+        for (through, pullback) in through.iter_mut().zip(&pullbacks[e]) {
+            *through += w * dot(&pullback.rhs, &psi);
+        }
+    });
+    through
 }
 
 /// How a cell's fit was solved: its normal matrix (with any virtual points), the Taylor
@@ -339,15 +360,13 @@ impl TlsMapping {
         // power of `dv(x) = x`.
         let pull_back_particle = |p: usize| {
             let c = cell[p];
-            // Through the fits: `sum_e w_pe (d/dr_e) . psi_e(x_p)` over the cells whose fits
-            // the particle enters.
-            let mut through_fits = [0.0; 3];
-            for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
-                let psi = taylor[e].psi(x[p]);
-                for (through, pullback) in through_fits.iter_mut().zip(&pullbacks[e]) {
-                    *through += w * dot(&pullback.rhs, &psi);
-                }
-            });
+            let through_fits = through_fits(
+                mesh,
+                domain_weights,
+                taylor,
+                pullbacks,
+                (c, x[p], volume[p]),
+            );
             let mut pulled = [0.0; 3];
             for load in 0..3 {
                 let through_totals = if conservative {
@@ -549,18 +568,17 @@ impl TlsMapping {
             density,
             ..
         } = particles;
-        // `d/dv_p` of the work of load `load`: through the fits and the conserved totals.
         // With the consistent metric, `d/dv_p` of the work of both loads: through the fits
         // and the conserved totals.
         let pull_back_particle = |p: usize| {
             let c = cell[p];
-            let mut through_fits = [0.0; 2];
-            for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
-                let psi = taylor[e].psi(x[p]);
-                for (through, pullback) in through_fits.iter_mut().zip(&pullbacks[e]) {
-                    *through += w * dot(&pullback.rhs, &psi);
-                }
-            });
+            let through_fits = through_fits(
+                mesh,
+                domain_weights,
+                taylor,
+                pullbacks,
+                (c, x[p], volume[p]),
+            );
             let mut pulled = [0.0; 2];
             for load in 0..2 {
                 let through_totals =
