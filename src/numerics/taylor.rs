@@ -28,6 +28,21 @@
 /// Smallest accepted eigenvalue of the scaled normal-equation block.
 pub const MIN_SPREAD: f64 = 1e-3;
 
+/// Smallest accepted pivot of a *repaired* fit: a cell whose own points failed the
+/// [`MIN_SPREAD`] test and is fitted again with virtual points from its neighbours' faces,
+/// or by order reduction (docs/reconstruction.md, "Well-posed fits").
+///
+/// A virtual point lies on a face, where a lone particle that is about to leave the cell
+/// also lies, and the slope through two points `delta` apart, extrapolated across the
+/// fitted interval, amplifies their difference by about `extent / delta ~ 1 / sqrt(spread)`. With
+/// [`MIN_SPREAD`] that is a factor of about 30, and the stiffness of the coupling through
+/// the fit grows with its square: MPM-TLS with virtual points gained 5.5e3 J of kinetic
+/// energy in `consolidation_large` (76.6 J with this threshold, as with order reduction),
+/// and the adjoint strain, which feeds that coupling back to the neighbour's particles,
+/// broke the explicit step's stability limit at the column's free top on 200 and 400
+/// cells. `3e-3` still failed the consolidation; `1e-2` and `3e-2` gave the same results.
+pub const REPAIR_MIN_SPREAD: f64 = 1e-2;
+
 /// `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds`: the mean square of each Taylor function over
 /// evenly spread points.
 const EVEN_MOMENTS: [f64; 3] = [1.0, 1.0 / 3.0, 1.0 / 45.0];
@@ -139,6 +154,37 @@ pub fn solve(
     kind: FitKind,
     terms: usize,
 ) -> Option<[f64; 3]> {
+    solve_with_spread(normal, rhs, kind, terms, MIN_SPREAD)
+}
+
+/// [`solve`] with the smallest accepted scaled pivot `spread` instead of [`MIN_SPREAD`]
+/// (for example [`REPAIR_MIN_SPREAD`]).
+///
+/// ```
+/// use tlsmpm::numerics::taylor::{
+///     add_rhs, solve_with_spread, FitKind, NormalMatrix, TaylorCell, MIN_SPREAD,
+///     REPAIR_MIN_SPREAD,
+/// };
+/// // Two points 4% of the cell apart near its left face: a slope through them is
+/// // accepted by the plain test and refused by the repair test.
+/// let cell = TaylorCell::new(0.0, 1.0);
+/// let mut normal = NormalMatrix::default();
+/// let mut rhs = [0.0; 3];
+/// for (x, u) in [(0.0, 1.0), (0.04, 2.0)] {
+///     let psi = cell.psi(x);
+///     normal.add(&psi);
+///     add_rhs(&mut rhs, &psi, u);
+/// }
+/// assert!(solve_with_spread(&normal, &rhs, FitKind::Full, 2, MIN_SPREAD).is_some());
+/// assert!(solve_with_spread(&normal, &rhs, FitKind::Full, 2, REPAIR_MIN_SPREAD).is_none());
+/// ```
+pub fn solve_with_spread(
+    normal: &NormalMatrix,
+    rhs: &[f64; 3],
+    kind: FitKind,
+    terms: usize,
+    spread: f64,
+) -> Option<[f64; 3]> {
     let mut a = [0.0; 3];
     let first = match kind {
         FitKind::Full => 0,
@@ -169,7 +215,7 @@ pub fn solve(
             0.0
         };
         b[i] = rhs[first + i] - fixed;
-        threshold[i] = MIN_SPREAD * count * EVEN_MOMENTS[first + i];
+        threshold[i] = spread * count * EVEN_MOMENTS[first + i];
     }
     // Fixed sizes, so that the factorisation loops unroll.
     let x = match n {
@@ -210,8 +256,19 @@ pub fn solve_reduced_from(
     kind: FitKind,
     terms: usize,
 ) -> ([f64; 3], usize) {
+    solve_reduced_with_spread(normal, rhs, kind, terms, MIN_SPREAD)
+}
+
+/// [`solve_reduced_from`] with the smallest accepted scaled pivot `spread` at every order.
+pub fn solve_reduced_with_spread(
+    normal: &NormalMatrix,
+    rhs: &[f64; 3],
+    kind: FitKind,
+    terms: usize,
+    spread: f64,
+) -> ([f64; 3], usize) {
     for terms in (1..=terms.min(3)).rev() {
-        if let Some(a) = solve(normal, rhs, kind, terms) {
+        if let Some(a) = solve_with_spread(normal, rhs, kind, terms, spread) {
             return (a, terms);
         }
     }

@@ -47,7 +47,10 @@ use super::{
 };
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
-use crate::numerics::taylor::{solve, solve_reduced_from, FitKind, NormalMatrix, TaylorCell};
+use crate::numerics::taylor::{
+    solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix, TaylorCell, MIN_SPREAD,
+    REPAIR_MIN_SPREAD,
+};
 use crate::particles::Particles;
 use rayon::prelude::*;
 
@@ -151,6 +154,7 @@ struct Route {
     normal: NormalMatrix,
     terms: usize,
     reduced: bool,
+    spread: f64,
 }
 
 impl FitContext<'_> {
@@ -161,22 +165,25 @@ impl FitContext<'_> {
             normal: self.sums[cell].normal,
             terms: self.terms(kind(conservative, 0.0)),
             reduced: false,
+            spread: MIN_SPREAD,
         };
         match field.state[cell] {
             FitState::Inactive => return None,
             FitState::Fitted => {}
             FitState::Repaired => {
                 route.reduced = true;
+                route.spread = REPAIR_MIN_SPREAD;
                 if self.remedy == DegenerateRemedy::VirtualPoints {
                     for (_, face) in self.virtual_points(field, cell).into_iter().flatten() {
                         route.normal.add(&self.taylor[cell].psi(face));
                     }
                     // The well-posedness test depends on the matrix only.
-                    route.reduced = solve(
+                    route.reduced = solve_with_spread(
                         &route.normal,
                         &[0.0; 3],
                         kind(conservative, 0.0),
                         route.terms,
+                        route.spread,
                     )
                     .is_none();
                 }
@@ -200,9 +207,9 @@ impl Route {
     fn fit(&self, rhs: &[f64; 3], mean: f64, conservative: bool) -> [f64; 3] {
         let kind = kind(conservative, mean);
         if self.reduced {
-            solve_reduced_from(&self.normal, rhs, kind, self.terms).0
+            solve_reduced_with_spread(&self.normal, rhs, kind, self.terms, self.spread).0
         } else {
-            solve(&self.normal, rhs, kind, self.terms).unwrap_or([0.0; 3])
+            solve_with_spread(&self.normal, rhs, kind, self.terms, self.spread).unwrap_or([0.0; 3])
         }
     }
 

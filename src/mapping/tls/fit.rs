@@ -10,7 +10,8 @@ use super::super::RemedyCounts;
 use crate::config::DegenerateRemedy;
 use crate::grid::Grid;
 use crate::numerics::taylor::{
-    add_rhs, solve, solve_reduced_from, FitKind, NormalMatrix, TaylorCell,
+    add_rhs, solve, solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix,
+    TaylorCell, REPAIR_MIN_SPREAD,
 };
 use rayon::prelude::*;
 
@@ -141,14 +142,16 @@ impl FitContext<'_> {
                 normal.add(&psi);
                 add_rhs(&mut rhs, &psi, value);
             }
-            if let Some(a) = solve(&normal, &rhs, kind, self.terms(kind)) {
+            if let Some(a) =
+                solve_with_spread(&normal, &rhs, kind, self.terms(kind), REPAIR_MIN_SPREAD)
+            {
                 counts.virtual_point_fits = 1;
                 return (a, counts);
             }
         }
         counts.order_reduced_fits = 1;
         (
-            solve_reduced_from(&normal, &rhs, kind, self.terms(kind)).0,
+            solve_reduced_with_spread(&normal, &rhs, kind, self.terms(kind), REPAIR_MIN_SPREAD).0,
             counts,
         )
     }

@@ -556,3 +556,43 @@ fn domain_weighted_fits_change_continuously_across_a_face() {
         }
     }
 }
+
+/// A lone particle just inside the last cell, next to the face where the virtual point from
+/// its neighbour's fit lies: the top node's internal force per unit stress of that
+/// particle stays of order one. The fit lives on the cell's material extent `[face, x + V/2]`
+/// (here about `h / 2`); a slope through the two points, `delta` apart, extrapolated across
+/// it gives about `extent / (2 delta)` times more (26 times at `delta = 0.02 h` with the plain
+/// threshold, which accepted it). The repair threshold refuses it below `delta ~ 0.03 h`,
+/// and the repaired fit is the mean of the particle and the virtual point (stress 0), half
+/// of what order reduction (the particle's own stress) gives.
+#[test]
+fn a_lone_particle_at_a_face_does_not_amplify_the_repaired_stress_fit() {
+    let grid = Grid::new(1.0, 4);
+    let basis = LinearBasis::new(grid);
+    let top = basis.num_dofs() - 1;
+    for offset in [0.01, 0.02, 0.03] {
+        let (mut particles, _) = layout(&grid, &[4, 4, 4, 1], &[0.5]);
+        let lone = particles.len() - 1;
+        particles.x[lone] = grid.cell_left(3) + offset * grid.h;
+        particles.stress.iter_mut().for_each(|s| *s = 0.0);
+        particles.stress[lone] = 1.0;
+        let mut bins = CellBins::default();
+        bins.sort(&mut particles, grid.cells);
+        let top_force = |remedy| {
+            let mut mapping = TlsMapping::new(grid, 3, remedy, CellTotals::Domains).unwrap();
+            let mut fields = GridFields::new(basis.num_dofs());
+            mapping.map_mass_and_internal_force(&basis, &particles, &bins, &mut fields);
+            fields.internal_force[top]
+        };
+        let reduced = top_force(DegenerateRemedy::OrderReduction);
+        let virtual_points = top_force(DegenerateRemedy::VirtualPoints);
+        assert!(
+            reduced.abs() <= 1.0,
+            "offset {offset} h: order reduction {reduced}"
+        );
+        assert!(
+            (virtual_points - 0.5 * reduced).abs() < 1e-12,
+            "offset {offset} h: virtual points {virtual_points}, order reduction {reduced}"
+        );
+    }
+}
