@@ -32,15 +32,15 @@ pub const MIN_SPREAD: f64 = 1e-3;
 /// [`MIN_SPREAD`] test and is fitted again with virtual points from its neighbours' faces,
 /// or by order reduction (docs/reconstruction.md, "Well-posed fits").
 ///
-/// A virtual point lies on a face, where a lone particle that is about to leave the cell
-/// also lies, and the slope through two points `delta` apart, extrapolated across the
-/// fitted interval, amplifies their difference by about `extent / delta ~ 1 / sqrt(spread)`. With
-/// [`MIN_SPREAD`] that is a factor of about 30, and the stiffness of the coupling through
-/// the fit grows with its square: MPM-TLS with virtual points gained 5.5e3 J of kinetic
-/// energy in `consolidation_large` (76.6 J with this threshold, as with order reduction),
-/// and the adjoint strain, which feeds that coupling back to the neighbour's particles,
-/// broke the explicit step's stability limit at the column's free top on 200 and 400
-/// cells. `3e-3` still failed the consolidation; `1e-2` and `3e-2` gave the same results.
+/// A virtual point lies on a face, next to which a lone particle about to leave the cell
+/// lies, and the slope through two points `delta` apart, extrapolated across the fitted
+/// interval, amplifies their difference by about `extent / delta ~ 1 / sqrt(spread)`:
+/// about 30 times with [`MIN_SPREAD`]. With that, MPM-TLS with virtual points gained
+/// 5.5e3 J of kinetic energy in `consolidation_large` (76.6 J with this threshold, as with
+/// order reduction), and with the adjoint strain, which feeds the force back to the
+/// neighbour's particles that made the virtual point, the column's free top blew up on
+/// 200 and 400 cells. `3e-3` still failed the consolidation; `1e-2` and `3e-2` gave the
+/// same results.
 pub const REPAIR_MIN_SPREAD: f64 = 1e-2;
 
 /// `S_i = (1/2) int_{-1}^{1} psi_i(s)^2 ds`: the mean square of each Taylor function over
