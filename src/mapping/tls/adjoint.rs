@@ -48,8 +48,7 @@ use super::{
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
 use crate::numerics::taylor::{
-    solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix, TaylorCell, MIN_SPREAD,
-    REPAIR_MIN_SPREAD,
+    solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix, TaylorCell,
 };
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -127,25 +126,72 @@ fn through_totals(
     shares[0] * left + shares[1] * per_total(c) + shares[2] * right
 }
 
-/// `sum_e w_pe (d/dr_e) . psi_e(x_p)` for each of the `K` loads: the derivatives, through
-/// the fits of the cells that particle `p` (in cell `c`, at `x`, of volume `volume`)
-/// enters, of the loads' work by the particle's datum.
-#[inline]
-fn through_fits<const K: usize>(
-    mesh: &Grid,
+/// What the pull-back of one particle reads besides the cells' pull-backs: the grid, the
+/// cells' Taylor bases and the rules for the fit weights and the conserved totals.
+#[derive(Clone, Copy)]
+struct ParticleRoutes<'a> {
+    mesh: &'a Grid,
+    taylor: &'a [TaylorCell],
     domain_weights: bool,
-    taylor: &[TaylorCell],
-    pullbacks: &[[Pullback; K]],
-    (c, x, volume): (usize, f64, f64),
-) -> [f64; K] {
-    let mut through = [0.0; K];
-    for_each_fit_cell(mesh, domain_weights, c, x, volume, |e, w| {
-        let psi = taylor[e].psi(x);
-        for (through, pullback) in through.iter_mut().zip(&pullbacks[e]) {
-            *through += w * dot(&pullback.rhs, &psi);
+    by_domains: bool,
+}
+
+impl ParticleRoutes<'_> {
+    /// The derivatives of the work of the first `K` of the cells' `L` loads by the datum of
+    /// particle `p` (in cell `c`, at `x`, of volume `volume`):
+    ///
+    /// ```text
+    /// scale sum_e w_pe (d/dr_e) . psi_e(x_p)  +  sum_e s_pe q_p (d/dt_e)
+    /// ```
+    ///
+    /// through the fits of the cells the particle enters (`scale`: its density for the
+    /// momentum, 1 for the stress) and, with `totals = Some((q_p, per_total))`, through the
+    /// conserved totals of the cells its amount `q_p` is shared among (`per_total(e, load)`:
+    /// the load's work per unit of cell `e`'s total; see [`through_totals`]).
+    #[inline]
+    fn pull_back<const L: usize, const K: usize>(
+        &self,
+        pullbacks: &[[Pullback; L]],
+        (c, x, volume): (usize, f64, f64),
+        scale: f64,
+        totals: Option<(f64, &impl Fn(usize, usize) -> f64)>,
+    ) -> [f64; K] {
+        debug_assert!(K <= L, "{K} loads pulled back of {L}");
+        let mut through_fits = [0.0; K];
+        for_each_fit_cell(self.mesh, self.domain_weights, c, x, volume, |e, w| {
+            let psi = self.taylor[e].psi(x);
+            for (through, pullback) in through_fits.iter_mut().zip(&pullbacks[e]) {
+                *through += w * dot(&pullback.rhs, &psi);
+            }
+        });
+        let mut pulled = [0.0; K];
+        for (load, pulled) in pulled.iter_mut().enumerate() {
+            let through_totals = match totals {
+                Some((q, per_total)) => {
+                    through_totals(self.by_domains, self.mesh, c, x, volume, q, |e| {
+                        per_total(e, load)
+                    })
+                }
+                None => 0.0,
+            };
+            *pulled = through_fits[load] * scale + through_totals;
         }
-    });
-    through
+        pulled
+    }
+}
+
+/// The strain pull-backs of one particle (the power, the fit volume `V~_p`, ...) with
+/// `V~_p` replaced by the particle volume `V_p` where it is at most [`MIN_FIT_VOLUME`]` V_p`
+/// or NaN; and whether it was (a fallback).
+#[inline]
+fn with_fit_volume<const K: usize>(mut pulled: [f64; K], volume: f64) -> ([f64; K], bool) {
+    // NaN falls back too.
+    let fitted_enough = pulled[1] > MIN_FIT_VOLUME * volume;
+    let fallback = !fitted_enough;
+    if fallback {
+        pulled[1] = volume;
+    }
+    (pulled, fallback)
 }
 
 /// How a cell's fit was solved: its normal matrix (with any virtual points), the Taylor
@@ -161,18 +207,18 @@ impl FitContext<'_> {
     /// The route of `cell`'s fit of `field` (as in `plain_fit` / `FitContext::repair`);
     /// `None` for an inactive cell.
     fn route(&self, field: &FieldFit, cell: usize, conservative: bool) -> Option<Route> {
+        let state = field.state[cell];
         let mut route = Route {
             normal: self.sums[cell].normal,
             terms: self.terms(kind(conservative, 0.0)),
             reduced: false,
-            spread: MIN_SPREAD,
+            spread: state.min_spread(),
         };
-        match field.state[cell] {
+        match state {
             FitState::Inactive => return None,
             FitState::Fitted => {}
             FitState::Repaired => {
                 route.reduced = true;
-                route.spread = REPAIR_MIN_SPREAD;
                 if self.remedy == DegenerateRemedy::VirtualPoints {
                     for (_, face) in self.virtual_points(field, cell).into_iter().flatten() {
                         route.normal.add(&self.taylor[cell].psi(face));
@@ -284,6 +330,15 @@ fn pull_back_field<const K: usize>(
 }
 
 impl TlsMapping {
+    fn particle_routes(&self) -> ParticleRoutes<'_> {
+        ParticleRoutes {
+            mesh: &self.grid,
+            taylor: &self.taylor,
+            domain_weights: self.domain_weights,
+            by_domains: self.totals == CellTotals::Domains,
+        }
+    }
+
     fn context(&self) -> FitContext<'_> {
         FitContext {
             grid: &self.grid,
@@ -316,24 +371,17 @@ impl TlsMapping {
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
             .for_each(|(cell, [load, volume_load, linear_load])| {
-                if !consistent {
-                    points.for_each_shape(basis, domains, cell, |x, w, shape| {
-                        let psi = taylor[cell].psi(x);
-                        let power = w * shape.gradient(velocity);
-                        for j in 0..3 {
-                            load[j] += power * psi[j];
-                            volume_load[j] += w * psi[j];
-                        }
-                    });
-                    return;
-                }
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let power = w * shape.gradient(velocity);
                     for j in 0..3 {
                         load[j] += power * psi[j];
                         volume_load[j] += w * psi[j];
-                        linear_load[j] += w * x * psi[j];
+                    }
+                    if consistent {
+                        for j in 0..3 {
+                            linear_load[j] += w * x * psi[j];
+                        }
                     }
                 });
             });
@@ -356,43 +404,15 @@ impl TlsMapping {
                 0.0
             }
         };
-        let by_domains = self.totals == CellTotals::Domains;
-        let domain_weights = self.domain_weights;
-        let mesh = &self.grid;
+        let routes = self.particle_routes();
         let Particles {
             x, cell, volume, ..
         } = particles;
-        // With the consistent metric, per particle: `d/dsigma_p` of the power, the fit
-        // volume `V~_p` (or `V_p` where it is too small: a fallback) and `d/dsigma_p` of the
-        // power of `dv(x) = x`.
-        let pull_back_particle = |p: usize| {
-            let c = cell[p];
-            let through_fits = through_fits(
-                mesh,
-                domain_weights,
-                taylor,
-                pullbacks,
-                (c, x[p], volume[p]),
-            );
-            let mut pulled = [0.0; 3];
-            for load in 0..3 {
-                let through_totals = if conservative {
-                    through_totals(by_domains, mesh, c, x[p], volume[p], volume[p], |e| {
-                        per_total(e, load)
-                    })
-                } else {
-                    0.0
-                };
-                pulled[load] = through_fits[load] + through_totals;
-            }
-            // NaN falls back too.
-            let fitted_enough = pulled[1] > MIN_FIT_VOLUME * volume[p];
-            let fallback = !fitted_enough;
-            if fallback {
-                pulled[1] = volume[p];
-            }
-            (pulled, fallback)
-        };
+        // Per particle: `d/dsigma_p` of the power, the fit volume `V~_p` (or `V_p` where it is
+        // too small: a fallback) and, with the consistent metric, `d/dsigma_p` of the power
+        // of `dv(x) = x`.
+        let totals = |p: usize| conservative.then_some((volume[p], &per_total));
+        let route = |p: usize| (cell[p], x[p], volume[p]);
         deps.resize(x.len(), 0.0);
         if !consistent {
             let fallbacks: u64 = deps
@@ -403,40 +423,10 @@ impl TlsMapping {
                     let mut fallbacks = 0;
                     for (k, deps) in deps.iter_mut().enumerate() {
                         let p = start + k;
-                        let c = cell[p];
-                        // Through the fits: `sum_e w_pe (d/dr_e) . psi_e(x_p)` over the cells
-                        // whose fits the particle enters.
-                        let (mut through_work, mut through_volume) = (0.0, 0.0);
-                        for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
-                            let psi = taylor[e].psi(x[p]);
-                            let [work, fit_volume, _] = &pullbacks[e];
-                            through_work += w * dot(&work.rhs, &psi);
-                            through_volume += w * dot(&fit_volume.rhs, &psi);
-                        });
-                        let [through_totals, volume_through_totals] = if conservative {
-                            [0, 1].map(|load| {
-                                through_totals(
-                                    by_domains,
-                                    mesh,
-                                    c,
-                                    x[p],
-                                    volume[p],
-                                    volume[p],
-                                    |e| per_total(e, load),
-                                )
-                            })
-                        } else {
-                            [0.0; 2]
-                        };
-                        let fitted = through_volume + volume_through_totals;
-                        // NaN falls back too.
-                        let weight = if fitted > MIN_FIT_VOLUME * volume[p] {
-                            fitted
-                        } else {
-                            fallbacks += 1;
-                            volume[p]
-                        };
-                        *deps = dt * (through_work + through_totals) / weight;
+                        let pulled = routes.pull_back(pullbacks, route(p), 1.0, totals(p));
+                        let ([work, weight], fallback) = with_fit_volume(pulled, volume[p]);
+                        fallbacks += u64::from(fallback);
+                        *deps = dt * work / weight;
                     }
                     fallbacks
                 })
@@ -459,7 +449,9 @@ impl TlsMapping {
                 let start = chunk * PARTICLES_PER_TASK;
                 let mut fallbacks = 0;
                 for k in 0..work.len() {
-                    let ([w, v, l], fallback) = pull_back_particle(start + k);
+                    let p = start + k;
+                    let pulled = routes.pull_back(pullbacks, route(p), 1.0, totals(p));
+                    let ([w, v, l], fallback) = with_fit_volume(pulled, volume[p]);
                     fallbacks += u64::from(fallback);
                     (work[k], weight[k], linear[k]) = (w, v, l);
                 }
@@ -502,22 +494,16 @@ impl TlsMapping {
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
             .for_each(|(cell, [load, linear_load])| {
-                if !consistent {
-                    points.for_each_shape(basis, domains, cell, |x, w, shape| {
-                        let psi = taylor[cell].psi(x);
-                        let work = w * shape.interpolate(acceleration);
-                        for j in 0..3 {
-                            load[j] += work * psi[j];
-                        }
-                    });
-                    return;
-                }
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let work = w * shape.interpolate(acceleration);
                     for j in 0..3 {
                         load[j] += work * psi[j];
-                        linear_load[j] += w * x * psi[j];
+                    }
+                    if consistent {
+                        for j in 0..3 {
+                            linear_load[j] += w * x * psi[j];
+                        }
                     }
                 });
             });
@@ -564,9 +550,7 @@ impl TlsMapping {
                 0.0
             }
         };
-        let by_domains = self.totals == CellTotals::Domains;
-        let domain_weights = self.domain_weights;
-        let mesh = &self.grid;
+        let routes = self.particle_routes();
         let Particles {
             x,
             cell,
@@ -575,27 +559,10 @@ impl TlsMapping {
             density,
             ..
         } = particles;
-        // With the consistent metric, `d/dv_p` of the work of both loads: through the fits
-        // and the conserved totals.
-        let pull_back_particle = |p: usize| {
-            let c = cell[p];
-            let through_fits = through_fits(
-                mesh,
-                domain_weights,
-                taylor,
-                pullbacks,
-                (c, x[p], volume[p]),
-            );
-            let mut pulled = [0.0; 2];
-            for load in 0..2 {
-                let through_totals =
-                    through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], |e| {
-                        per_total(e, load)
-                    });
-                pulled[load] = through_fits[load] * density[p] + through_totals;
-            }
-            pulled
-        };
+        // `d/dv_p` of the work (and, with the consistent metric, of the work of `a(x) = x`):
+        // through the fits and the conserved totals.
+        let totals = |p: usize| Some((mass[p], &per_total));
+        let route = |p: usize| (cell[p], x[p], volume[p]);
         out.resize(x.len(), 0.0);
         if !consistent {
             out.par_chunks_mut(PARTICLES_PER_TASK)
@@ -604,17 +571,8 @@ impl TlsMapping {
                     let start = chunk * PARTICLES_PER_TASK;
                     for (k, a) in out.iter_mut().enumerate() {
                         let p = start + k;
-                        let c = cell[p];
-                        let through_totals =
-                            through_totals(by_domains, mesh, c, x[p], volume[p], mass[p], |e| {
-                                per_total(e, 0)
-                            });
-                        let mut through_fit = 0.0;
-                        for_each_fit_cell(mesh, domain_weights, c, x[p], volume[p], |e, w| {
-                            through_fit += w * dot(&pullbacks[e][0].rhs, &taylor[e].psi(x[p]));
-                        });
-                        let through_fit = through_fit * density[p];
-                        *a = (through_fit + through_totals) / mass[p];
+                        let [work] = routes.pull_back(pullbacks, route(p), density[p], totals(p));
+                        *a = work / mass[p];
                     }
                 });
             self.adjoint = Some(scratch);
@@ -630,7 +588,8 @@ impl TlsMapping {
             .for_each(|(chunk, (force, linear))| {
                 let start = chunk * PARTICLES_PER_TASK;
                 for (k, (f, l)) in force.iter_mut().zip(linear.iter_mut()).enumerate() {
-                    [*f, *l] = pull_back_particle(start + k);
+                    let p = start + k;
+                    [*f, *l] = routes.pull_back(pullbacks, route(p), density[p], totals(p));
                 }
             });
         self.remedies.limited_consistent_cells += particle_mass::consistent_accelerations(

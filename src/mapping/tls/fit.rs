@@ -10,8 +10,8 @@ use super::super::RemedyCounts;
 use crate::config::DegenerateRemedy;
 use crate::grid::Grid;
 use crate::numerics::taylor::{
-    add_rhs, solve, solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix,
-    TaylorCell, REPAIR_MIN_SPREAD,
+    add_rhs, solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix, TaylorCell,
+    MIN_SPREAD, REPAIR_MIN_SPREAD,
 };
 use rayon::prelude::*;
 
@@ -45,6 +45,20 @@ pub(super) enum FitState {
     Fitted,
     /// Repaired from neighbours or by order reduction.
     Repaired,
+}
+
+impl FitState {
+    /// The smallest scaled pivot a fit in this state must have: [`MIN_SPREAD`] for a cell
+    /// fitted from its own points, the stricter [`REPAIR_MIN_SPREAD`] for a repaired one
+    /// (virtual points or order reduction; docs/reconstruction.md, "The repair
+    /// threshold"). The fits and the adjoint's pull-back through them both take it from
+    /// here.
+    pub(super) fn min_spread(self) -> f64 {
+        match self {
+            FitState::Repaired => REPAIR_MIN_SPREAD,
+            FitState::Inactive | FitState::Fitted => MIN_SPREAD,
+        }
+    }
 }
 
 /// One reconstructed field: coefficients, fit states, and scratch for the repairs.
@@ -109,7 +123,8 @@ impl FitContext<'_> {
         if !active {
             return (FitState::Inactive, [0.0; 3]);
         }
-        match solve(normal, rhs, kind, self.terms(kind)) {
+        let spread = FitState::Fitted.min_spread();
+        match solve_with_spread(normal, rhs, kind, self.terms(kind), spread) {
             Some(a) => (FitState::Fitted, a),
             None => {
                 let a1 = match kind {
@@ -135,6 +150,7 @@ impl FitContext<'_> {
             ..RemedyCounts::default()
         };
         let mut normal = self.sums[cell].normal;
+        let spread = FitState::Repaired.min_spread();
         if self.remedy == DegenerateRemedy::VirtualPoints {
             for (neighbour, face) in self.virtual_points(field, cell).into_iter().flatten() {
                 let value = self.taylor[neighbour].eval(&field.coefficients[neighbour], face);
@@ -142,16 +158,14 @@ impl FitContext<'_> {
                 normal.add(&psi);
                 add_rhs(&mut rhs, &psi, value);
             }
-            if let Some(a) =
-                solve_with_spread(&normal, &rhs, kind, self.terms(kind), REPAIR_MIN_SPREAD)
-            {
+            if let Some(a) = solve_with_spread(&normal, &rhs, kind, self.terms(kind), spread) {
                 counts.virtual_point_fits = 1;
                 return (a, counts);
             }
         }
         counts.order_reduced_fits = 1;
         (
-            solve_reduced_with_spread(&normal, &rhs, kind, self.terms(kind), REPAIR_MIN_SPREAD).0,
+            solve_reduced_with_spread(&normal, &rhs, kind, self.terms(kind), spread).0,
             counts,
         )
     }
