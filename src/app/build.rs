@@ -104,9 +104,8 @@ pub fn build_simulation(
                     )
                     .with_conservative_stress(method.stress_fit() == StressFit::Conservative)
                     .with_domain_weights(method.fit_weights() == FitWeights::Domains)
-                    .with_consistent_particle_mass(
-                        method.adjoint_mass() == AdjointMass::Consistent,
-                    );
+                    .with_consistent_particle_mass(method.adjoint_mass() != AdjointMass::Lumped)
+                    .with_quadratic_particle_mass(method.adjoint_mass() == AdjointMass::Quadratic);
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

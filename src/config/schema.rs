@@ -527,6 +527,10 @@ pub enum AdjointMass {
     /// that makes `W` exact for linear accelerations (up to the cell's first-moment
     /// defect); momentum and the neutral frozen step are kept.
     Consistent,
+    /// As `consistent`, with a symmetric rank-4 term that makes `W` exact for quadratic
+    /// accelerations as well (up to a constant per cell); the linear one where a cell's
+    /// particles do not determine a quadratic.
+    Quadratic,
 }
 
 /// `method.stress_fit`: how TLS fits the particle stresses in a cell.

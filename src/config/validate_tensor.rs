@@ -262,10 +262,16 @@ impl Scenario {
                 "the domain-weighted TLS fits",
             );
         }
-        if self.method.adjoint_mass == Some(AdjointMass::Consistent) {
+        if let Some(metric @ (AdjointMass::Consistent | AdjointMass::Quadratic)) =
+            self.method.adjoint_mass
+        {
             return one_d_only(
                 "method.adjoint_mass",
-                "\"consistent\"",
+                if metric == AdjointMass::Quadratic {
+                    "\"quadratic\""
+                } else {
+                    "\"consistent\""
+                },
                 "the consistent particle mass of the adjoint TLS acceleration",
             );
         }

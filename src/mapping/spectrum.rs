@@ -118,7 +118,7 @@ pub fn frozen_spectrum_of<M: Mapping>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{CellTotals, DegenerateRemedy};
+    use crate::config::{AdjointMass, CellTotals, DegenerateRemedy};
     use crate::mapping::{DirectMapping, TlsMapping};
 
     /// Undeformed and deformed configurations (amplitude, phase) of the MMS bar.
@@ -173,7 +173,7 @@ mod tests {
         adjoint: bool,
         conservative_stress: bool,
         domain_weights: bool,
-        consistent_mass: bool,
+        metric: AdjointMass,
     ) -> Vec<(CellTotals, DegenerateRemedy, usize, f64)> {
         let mut table = Vec::new();
         for totals in [CellTotals::Domains, CellTotals::Centres] {
@@ -189,7 +189,8 @@ mod tests {
                             .with_adjoint(adjoint)
                             .with_conservative_stress(conservative_stress)
                             .with_domain_weights(domain_weights)
-                            .with_consistent_particle_mass(consistent_mass);
+                            .with_consistent_particle_mass(metric != AdjointMass::Lumped)
+                            .with_quadratic_particle_mass(metric == AdjointMass::Quadratic);
                         let (growth, _) =
                             frozen_spectrum_of(mapping, 16, per_cell, amplitude, phase);
                         worst = worst.max(growth);
@@ -198,7 +199,7 @@ mod tests {
                         "{totals:?} {remedy:?} {per_cell} PPC adjoint {adjoint} \
                          conservative stress {conservative_stress} \
                          domain weights {domain_weights} \
-                         consistent mass {consistent_mass}: {worst:.2e}"
+                         particle metric {metric:?}: {worst:.2e}"
                     );
                     table.push((totals, remedy, per_cell, worst));
                 }
@@ -214,25 +215,28 @@ mod tests {
         // particle metric: max Re <= 1e-12 c/L (measured ~1e-15); the gradient strain
         // grows in some of the same configurations, with either stress fit and either
         // weighting.
-        for (conservative_stress, domain_weights, consistent_mass) in [
-            (false, false, false),
-            (true, false, false),
-            (false, true, false),
-            (true, true, false),
-            (false, false, true),
-            (false, true, true),
+        use AdjointMass::{Consistent, Lumped, Quadratic};
+        for (conservative_stress, domain_weights, metric) in [
+            (false, false, Lumped),
+            (true, false, Lumped),
+            (false, true, Lumped),
+            (true, true, Lumped),
+            (false, false, Consistent),
+            (false, true, Consistent),
+            (false, false, Quadratic),
+            (false, true, Quadratic),
         ] {
             for (totals, remedy, per_cell, growth) in
-                tls_growth(true, conservative_stress, domain_weights, consistent_mass)
+                tls_growth(true, conservative_stress, domain_weights, metric)
             {
                 assert!(
                     growth <= 1e-12,
                     "{totals:?} {remedy:?} {per_cell} PPC {conservative_stress} \
-                     {domain_weights} {consistent_mass}: {growth:e}"
+                     {domain_weights} {metric:?}: {growth:e}"
                 );
             }
-            if !consistent_mass {
-                let gradient = tls_growth(false, conservative_stress, domain_weights, false);
+            if metric == Lumped {
+                let gradient = tls_growth(false, conservative_stress, domain_weights, Lumped);
                 assert!(gradient.iter().any(|row| row.3 > 0.1), "{gradient:?}");
             }
         }

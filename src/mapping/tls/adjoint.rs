@@ -42,8 +42,8 @@
 //! by the consistent metric of [`super::particle_mass`], exact for linear fields.
 
 use super::{
-    add_shares, for_each_fit_cell, particle_mass, FieldFit, FitContext, FitState, TlsMapping,
-    CELLS_PER_TASK,
+    add_shares, for_each_fit_cell, particle_mass, quadratic_mass, FieldFit, FitContext, FitState,
+    TlsMapping, CELLS_PER_TASK,
 };
 use crate::config::{CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
@@ -72,23 +72,26 @@ pub(super) struct Pullback {
 #[derive(Clone, Debug, Default)]
 pub(super) struct AdjointScratch {
     /// Per cell: the power, the volume load and (with the consistent particle metric) the
-    /// power of the velocity gradient field `dv(x) = x`.
-    strain_loads: Vec<[[f64; 3]; 3]>,
-    strain_pullbacks: Vec<[Pullback; 3]>,
+    /// power of the velocity gradient fields `dv(x) = x` and (quadratic metric) `x^2`.
+    strain_loads: Vec<[[f64; 3]; 4]>,
+    strain_pullbacks: Vec<[Pullback; 4]>,
     /// Per cell, the work of the grid accelerations and (with the consistent particle
-    /// mass) of the field `a(x) = x`.
-    momentum_loads: Vec<[[f64; 3]; 2]>,
-    momentum_pullbacks: Vec<[Pullback; 2]>,
+    /// mass) of the fields `a(x) = x` and (quadratic metric) `x^2`.
+    momentum_loads: Vec<[[f64; 3]; 3]>,
+    momentum_pullbacks: Vec<[Pullback; 3]>,
     /// Kinetic-energy limiter: per cell and load, `(1 - theta) A_c . rho_hat_c / rho_1`,
     /// the derivative of the blended part's work by the cell's mean momentum density.
-    mean_velocity_loads: Vec<[f64; 2]>,
+    mean_velocity_loads: Vec<[f64; 3]>,
     /// Consistent particle mass: per particle, the pull-backs `P^T a` and `P^T x`, and per
     /// cell the Woodbury data ([`particle_mass`]).
     particle_force: Vec<f64>,
     particle_linear: Vec<f64>,
+    /// The pull-backs of `x^2` (quadratic metric only).
+    particle_quadratic: Vec<f64>,
     /// The strain's particle weights `V~_p` (consistent metric only).
     particle_weight: Vec<f64>,
     corrections: Vec<Option<particle_mass::CellCorrection>>,
+    quadratic_corrections: Vec<Option<quadratic_mass::QuadraticCorrection>>,
 }
 
 #[inline]
@@ -363,14 +366,15 @@ impl TlsMapping {
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
         let consistent = self.consistent_particle_mass;
+        let quadratic = consistent && self.quadratic_particle_mass;
         scratch.strain_loads.clear();
-        scratch.strain_loads.resize(cells, [[0.0; 3]; 3]);
+        scratch.strain_loads.resize(cells, [[0.0; 3]; 4]);
         scratch
             .strain_loads
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, [load, volume_load, linear_load])| {
+            .for_each(|(cell, [load, volume_load, linear_load, quadratic_load])| {
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let power = w * shape.gradient(velocity);
@@ -381,6 +385,11 @@ impl TlsMapping {
                     if consistent {
                         for j in 0..3 {
                             linear_load[j] += w * x * psi[j];
+                        }
+                    }
+                    if quadratic {
+                        for j in 0..3 {
+                            quadratic_load[j] += w * x * x * psi[j];
                         }
                     }
                 });
@@ -437,37 +446,31 @@ impl TlsMapping {
         }
         let work = &mut scratch.particle_force;
         let (weight, linear) = (&mut scratch.particle_weight, &mut scratch.particle_linear);
-        for field in [&mut *work, &mut *weight, &mut *linear] {
+        let squares = &mut scratch.particle_quadratic;
+        for field in [&mut *work, &mut *weight, &mut *linear, &mut *squares] {
             field.resize(x.len(), 0.0);
         }
         let fallbacks: u64 = work
             .par_chunks_mut(PARTICLES_PER_TASK)
             .zip(weight.par_chunks_mut(PARTICLES_PER_TASK))
             .zip(linear.par_chunks_mut(PARTICLES_PER_TASK))
+            .zip(squares.par_chunks_mut(PARTICLES_PER_TASK))
             .enumerate()
-            .map(|(chunk, ((work, weight), linear))| {
+            .map(|(chunk, (((work, weight), linear), squares))| {
                 let start = chunk * PARTICLES_PER_TASK;
                 let mut fallbacks = 0;
                 for k in 0..work.len() {
                     let p = start + k;
                     let pulled = routes.pull_back(pullbacks, route(p), 1.0, totals(p));
-                    let ([w, v, l], fallback) = with_fit_volume(pulled, volume[p]);
+                    let ([w, v, l, q], fallback) = with_fit_volume(pulled, volume[p]);
                     fallbacks += u64::from(fallback);
-                    (work[k], weight[k], linear[k]) = (w, v, l);
+                    (work[k], weight[k], linear[k], squares[k]) = (w, v, l, q);
                 }
                 fallbacks
             })
             .sum();
-        self.remedies.limited_consistent_cells += particle_mass::consistent_accelerations(
-            cells,
-            cell,
-            x,
-            &scratch.particle_weight,
-            &scratch.particle_force,
-            &scratch.particle_linear,
-            &mut scratch.corrections,
-            deps,
-        );
+        self.remedies.limited_consistent_cells +=
+            self.particle_metric_solve(&mut scratch, cells, cell, x, Metric::FitVolume, deps);
         deps.par_iter_mut().for_each(|deps| *deps *= dt);
         self.remedies.strain_fallbacks += fallbacks;
         self.adjoint = Some(scratch);
@@ -486,14 +489,15 @@ impl TlsMapping {
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
         let consistent = self.consistent_particle_mass;
+        let quadratic = consistent && self.quadratic_particle_mass;
         scratch.momentum_loads.clear();
-        scratch.momentum_loads.resize(cells, [[0.0; 3]; 2]);
+        scratch.momentum_loads.resize(cells, [[0.0; 3]; 3]);
         scratch
             .momentum_loads
             .par_iter_mut()
             .with_min_len(CELLS_PER_TASK)
             .enumerate()
-            .for_each(|(cell, [load, linear_load])| {
+            .for_each(|(cell, [load, linear_load, quadratic_load])| {
                 points.for_each_shape(basis, domains, cell, |x, w, shape| {
                     let psi = taylor[cell].psi(x);
                     let work = w * shape.interpolate(acceleration);
@@ -505,13 +509,18 @@ impl TlsMapping {
                             linear_load[j] += w * x * psi[j];
                         }
                     }
+                    if quadratic {
+                        for j in 0..3 {
+                            quadratic_load[j] += w * x * x * psi[j];
+                        }
+                    }
                 });
             });
         // With the kinetic-energy limiter the cell's coefficients are
         // `theta alpha_c + (1 - theta) (a_1 / rho_1) rho_hat_c`: the fit's part takes the
         // load scaled by `theta`, the blended part depends on the mean `a_1` only.
         scratch.mean_velocity_loads.clear();
-        scratch.mean_velocity_loads.resize(cells, [0.0; 2]);
+        scratch.mean_velocity_loads.resize(cells, [0.0; 3]);
         if let Some(theta) = &self.momentum_theta {
             let density = &self.density.coefficients;
             scratch
@@ -579,29 +588,77 @@ impl TlsMapping {
             return;
         }
         let (force, linear) = (&mut scratch.particle_force, &mut scratch.particle_linear);
-        force.resize(x.len(), 0.0);
-        linear.resize(x.len(), 0.0);
+        let squares = &mut scratch.particle_quadratic;
+        for field in [&mut *force, &mut *linear, &mut *squares] {
+            field.resize(x.len(), 0.0);
+        }
         force
             .par_chunks_mut(PARTICLES_PER_TASK)
             .zip(linear.par_chunks_mut(PARTICLES_PER_TASK))
+            .zip(squares.par_chunks_mut(PARTICLES_PER_TASK))
             .enumerate()
-            .for_each(|(chunk, (force, linear))| {
+            .for_each(|(chunk, ((force, linear), squares))| {
                 let start = chunk * PARTICLES_PER_TASK;
-                for (k, (f, l)) in force.iter_mut().zip(linear.iter_mut()).enumerate() {
+                for k in 0..force.len() {
                     let p = start + k;
-                    [*f, *l] = routes.pull_back(pullbacks, route(p), density[p], totals(p));
+                    [force[k], linear[k], squares[k]] =
+                        routes.pull_back(pullbacks, route(p), density[p], totals(p));
                 }
             });
-        self.remedies.limited_consistent_cells += particle_mass::consistent_accelerations(
-            cells,
-            cell,
-            x,
-            mass,
-            &scratch.particle_force,
-            &scratch.particle_linear,
-            &mut scratch.corrections,
-            out,
-        );
+        self.remedies.limited_consistent_cells +=
+            self.particle_metric_solve(&mut scratch, cells, cell, x, Metric::Mass(mass), out);
         self.adjoint = Some(scratch);
     }
+
+    /// `out = W^{-1} f` with the consistent particle metric (linear, [`particle_mass`], or
+    /// quadratic, [`quadratic_mass`]) from the pull-backs in `scratch` (`f`: the work or
+    /// the power; `P^T x`, `P^T x^2`); the metric's diagonal is the particle masses or the
+    /// fit volumes `V~_p` in `scratch`. Returns the number of limited cells.
+    fn particle_metric_solve(
+        &self,
+        scratch: &mut AdjointScratch,
+        cells: usize,
+        cell: &[usize],
+        x: &[f64],
+        metric: Metric,
+        out: &mut [f64],
+    ) -> u64 {
+        let diagonal = match metric {
+            Metric::Mass(mass) => mass,
+            Metric::FitVolume => &scratch.particle_weight,
+        };
+        if self.quadratic_particle_mass {
+            quadratic_mass::quadratic_accelerations(
+                cells,
+                cell,
+                x,
+                diagonal,
+                &scratch.particle_force,
+                &scratch.particle_linear,
+                &scratch.particle_quadratic,
+                &mut scratch.quadratic_corrections,
+                out,
+            )
+        } else {
+            particle_mass::consistent_accelerations(
+                cells,
+                cell,
+                x,
+                diagonal,
+                &scratch.particle_force,
+                &scratch.particle_linear,
+                &mut scratch.corrections,
+                out,
+            )
+        }
+    }
+}
+
+/// The diagonal of a consistent particle metric.
+#[derive(Clone, Copy)]
+enum Metric<'a> {
+    /// The particle masses (the acceleration).
+    Mass(&'a [f64]),
+    /// The fit volumes `V~_p` of the scratch (the strain).
+    FitVolume,
 }

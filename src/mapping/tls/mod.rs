@@ -98,6 +98,9 @@ pub struct TlsMapping {
     /// consistent particle mass ([`particle_mass`]), exact for linear accelerations; else
     /// with the particle masses.
     consistent_particle_mass: bool,
+    /// `method.adjoint_mass = "quadratic"`: the consistent particle metric is the one of
+    /// [`quadratic_mass`], exact for quadratic fields as well.
+    quadratic_particle_mass: bool,
 }
 
 impl TlsMapping {
@@ -134,6 +137,7 @@ impl TlsMapping {
             conservative_stress: false,
             domain_weights: false,
             consistent_particle_mass: false,
+            quadratic_particle_mass: false,
         })
     }
 
@@ -188,6 +192,14 @@ impl TlsMapping {
     /// step are kept.
     pub fn with_consistent_particle_mass(mut self, consistent: bool) -> Self {
         self.consistent_particle_mass = consistent;
+        self
+    }
+
+    /// With `quadratic` (and [`Self::with_consistent_particle_mass`]), the consistent
+    /// particle metric is exact for quadratic fields as well ([`quadratic_mass`],
+    /// `method.adjoint_mass = "quadratic"`).
+    pub fn with_quadratic_particle_mass(mut self, quadratic: bool) -> Self {
+        self.quadratic_particle_mass = quadratic;
         self
     }
 
@@ -682,5 +694,6 @@ pub(super) fn for_each_fit_cell(
 pub mod adjoint;
 mod fit;
 mod particle_mass;
+mod quadratic_mass;
 #[cfg(test)]
 mod tests;

@@ -61,6 +61,13 @@ pub(super) struct CellCorrection {
     limited: bool,
 }
 
+impl CellCorrection {
+    /// `z` of the Woodbury solve (the coefficients of `d'` and `xt`).
+    pub(super) fn woodbury_solution(&self) -> [f64; 2] {
+        self.z
+    }
+}
+
 /// The particle accelerations `a = W^{-1} f` (see the module doc). `cell` is sorted (the
 /// particles are binned by cell); `force` is `f = P^T a_grid`, `linear` the pull-back of
 /// the field `a(x) = x`. Cells whose particles are not contiguous fall back to the lumped
@@ -115,7 +122,7 @@ pub(super) fn consistent_accelerations(
 
 /// The Woodbury data of one cell's consistent mass, `None` where it keeps the lumped
 /// mass.
-fn cell_correction(
+pub(super) fn cell_correction(
     x: &[f64],
     mass: &[f64],
     force: &[f64],
