@@ -6,8 +6,8 @@
 
 use crate::app::solvers::{build_solver, SolverGeometry};
 use crate::config::{
-    AdjointMass, BasisKind, FitWeights, MassKind, MaterialModel, MomentumLimiter,
-    ParticleAcceleration, ReconstructionKind, Scenario, StrainKind, StressFit,
+    BasisKind, FitWeights, MassKind, MaterialModel, MomentumLimiter, ParticleAcceleration,
+    ReconstructionKind, Scenario, StrainKind, StressFit,
 };
 use crate::error::{Error, Result};
 use crate::grid::{BSplineBasis, Basis, CpdiBasis, DdmpmBasis, GimpBasis, Grid, LinearBasis};
@@ -104,8 +104,7 @@ pub fn build_simulation(
                     )
                     .with_conservative_stress(method.stress_fit() == StressFit::Conservative)
                     .with_domain_weights(method.fit_weights() == FitWeights::Domains)
-                    .with_consistent_particle_mass(method.adjoint_mass() != AdjointMass::Lumped)
-                    .with_quadratic_particle_mass(method.adjoint_mass() == AdjointMass::Quadratic);
+                    .with_particle_metric(method.adjoint_mass());
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {

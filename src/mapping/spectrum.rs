@@ -189,8 +189,7 @@ mod tests {
                             .with_adjoint(adjoint)
                             .with_conservative_stress(conservative_stress)
                             .with_domain_weights(domain_weights)
-                            .with_consistent_particle_mass(metric != AdjointMass::Lumped)
-                            .with_quadratic_particle_mass(metric == AdjointMass::Quadratic);
+                            .with_particle_metric(metric);
                         let (growth, _) =
                             frozen_spectrum_of(mapping, 16, per_cell, amplitude, phase);
                         worst = worst.max(growth);

@@ -45,7 +45,7 @@ use super::{
     add_shares, for_each_fit_cell, particle_mass, quadratic_mass, FieldFit, FitContext, FitState,
     TlsMapping, CELLS_PER_TASK,
 };
-use crate::config::{CellTotals, DegenerateRemedy};
+use crate::config::{AdjointMass, CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
 use crate::numerics::taylor::{
     solve_reduced_with_spread, solve_with_spread, FitKind, NormalMatrix, TaylorCell,
@@ -365,8 +365,8 @@ impl TlsMapping {
         let mut scratch = self.adjoint.take().unwrap_or_default();
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
-        let consistent = self.consistent_particle_mass;
-        let quadratic = consistent && self.quadratic_particle_mass;
+        let consistent = self.particle_metric != AdjointMass::Lumped;
+        let quadratic = self.particle_metric == AdjointMass::Quadratic;
         scratch.strain_loads.clear();
         scratch.strain_loads.resize(cells, [[0.0; 3]; 4]);
         scratch
@@ -488,8 +488,8 @@ impl TlsMapping {
         let mut scratch = self.adjoint.take().unwrap_or_default();
         let cells = self.grid.cells;
         let (taylor, points, domains) = (&self.taylor, &self.points, &self.domains);
-        let consistent = self.consistent_particle_mass;
-        let quadratic = consistent && self.quadratic_particle_mass;
+        let consistent = self.particle_metric != AdjointMass::Lumped;
+        let quadratic = self.particle_metric == AdjointMass::Quadratic;
         scratch.momentum_loads.clear();
         scratch.momentum_loads.resize(cells, [[0.0; 3]; 3]);
         scratch
@@ -627,7 +627,7 @@ impl TlsMapping {
             Metric::Mass(mass) => mass,
             Metric::FitVolume => &scratch.particle_weight,
         };
-        if self.quadratic_particle_mass {
+        if self.particle_metric == AdjointMass::Quadratic {
             quadratic_mass::quadratic_accelerations(
                 cells,
                 cell,

@@ -51,7 +51,7 @@
 
 use super::quadrature::{integrate_mass_and_force, integrate_momentum, CellDomains, GaussPoints};
 use super::{CellScatter, GridFields, Mapping, RemedyCounts};
-use crate::config::{CellTotals, DegenerateRemedy};
+use crate::config::{AdjointMass, CellTotals, DegenerateRemedy};
 use crate::grid::{Basis, Grid};
 use crate::numerics::gauss::GaussRule;
 use crate::numerics::taylor::{add_rhs, FitKind, TaylorCell};
@@ -94,13 +94,11 @@ pub struct TlsMapping {
     /// domain overlaps, weighted by the overlapping fraction ([`for_each_fit_point`]);
     /// else one point of weight 1 in the cell of its centre (the published method).
     domain_weights: bool,
-    /// `method.adjoint_mass = "consistent"`: the adjoint acceleration solves with the
-    /// consistent particle mass ([`particle_mass`]), exact for linear accelerations; else
-    /// with the particle masses.
-    consistent_particle_mass: bool,
-    /// `method.adjoint_mass = "quadratic"`: the consistent particle metric is the one of
-    /// [`quadratic_mass`], exact for quadratic fields as well.
-    quadratic_particle_mass: bool,
+    /// `method.adjoint_mass`: the particle metric `W` of the adjoint acceleration and
+    /// strain, the particle masses (fit volumes), the consistent metric of
+    /// [`particle_mass`] (exact for linear fields) or that of [`quadratic_mass`] (exact for
+    /// quadratic fields as well).
+    particle_metric: AdjointMass,
 }
 
 impl TlsMapping {
@@ -136,8 +134,7 @@ impl TlsMapping {
             momentum_theta: None,
             conservative_stress: false,
             domain_weights: false,
-            consistent_particle_mass: false,
-            quadratic_particle_mass: false,
+            particle_metric: AdjointMass::Lumped,
         })
     }
 
@@ -185,21 +182,14 @@ impl TlsMapping {
         self
     }
 
-    /// With `consistent`, the adjoint particle acceleration (`method.strain = "adjoint"`)
-    /// is `W^{-1} P^T a` with the consistent particle mass `W` of [`particle_mass`]
-    /// (`method.adjoint_mass = "consistent"`): exact for linear accelerations where the
-    /// lumped `diag(m_p)` is exact for uniform ones only; momentum and the neutral frozen
-    /// step are kept.
-    pub fn with_consistent_particle_mass(mut self, consistent: bool) -> Self {
-        self.consistent_particle_mass = consistent;
-        self
-    }
-
-    /// With `quadratic` (and [`Self::with_consistent_particle_mass`]), the consistent
-    /// particle metric is exact for quadratic fields as well ([`quadratic_mass`],
-    /// `method.adjoint_mass = "quadratic"`).
-    pub fn with_quadratic_particle_mass(mut self, quadratic: bool) -> Self {
-        self.quadratic_particle_mass = quadratic;
+    /// The particle metric `W` of the adjoint step (`method.strain = "adjoint"`): the
+    /// particle acceleration is `W^{-1} P^T a`. `Lumped` (the default) is `diag(m_p)`,
+    /// exact for uniform accelerations only; `Consistent` the metric of [`particle_mass`],
+    /// exact for linear ones; `Quadratic` that of [`quadratic_mass`], exact for quadratic
+    /// ones where a cell's particles allow it (`method.adjoint_mass`). Momentum and the
+    /// neutral frozen step are kept by each.
+    pub fn with_particle_metric(mut self, metric: AdjointMass) -> Self {
+        self.particle_metric = metric;
         self
     }
 
@@ -692,6 +682,7 @@ pub(super) fn for_each_fit_cell(
 }
 
 pub mod adjoint;
+mod cell_metric;
 mod fit;
 mod particle_mass;
 mod quadratic_mass;

@@ -39,14 +39,12 @@
 //! velocity gradient field `dv(x) = x` in place of the linear acceleration, makes the
 //! adjoint strain exact for linear velocity gradients.
 
-use rayon::prelude::*;
+use super::cell_metric::{metric_accelerations, CellMetric, MetricInputs};
 
 /// Smallest accepted eigenvalue of `diag(m)^{-1/2} W_c diag(m)^{-1/2}`.
 pub const MIN_EIGENVALUE: f64 = 0.99;
 /// Largest accepted eigenvalue of `diag(m)^{-1/2} W_c diag(m)^{-1/2}`.
 pub const MAX_EIGENVALUE: f64 = 1.01;
-/// Cells per rayon task.
-const CELLS_PER_TASK: usize = 128;
 
 /// The per-cell Woodbury solution: `a_p = (f_p - d'_p z_0 - xt_p z_1) / m_p`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -68,12 +66,10 @@ impl CellCorrection {
     }
 }
 
-/// The particle accelerations `a = W^{-1} f` (see the module doc). `cell` is sorted (the
-/// particles are binned by cell); `force` is `f = P^T a_grid`, `linear` the pull-back of
-/// the field `a(x) = x`. Cells whose particles are not contiguous fall back to the lumped
-/// mass (the arrays are always sorted when mapped; the check keeps a misuse harmless).
-/// Returns the number of cells of two particles or more whose correction was scaled down
-/// (or dropped).
+/// The particle accelerations `a = W^{-1} f` (see the module doc; the driver is
+/// [`metric_accelerations`]): `cell` is sorted, `force` is `f = P^T a_grid`, `linear` the
+/// pull-back of the field `a(x) = x`. Returns the number of cells of two particles or more
+/// whose correction was scaled down (or dropped).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn consistent_accelerations(
     cells: usize,
@@ -85,39 +81,31 @@ pub(super) fn consistent_accelerations(
     corrections: &mut Vec<Option<CellCorrection>>,
     out: &mut [f64],
 ) -> u64 {
-    corrections.clear();
-    corrections.resize(cells, None);
-    let sorted = cell.par_windows(2).all(|w| w[0] <= w[1]);
-    let lumped_cells: u64 = if sorted {
-        corrections
-            .par_iter_mut()
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .map(|(c, correction)| {
-                let start = cell.partition_point(|&k| k < c);
-                let end = cell.partition_point(|&k| k <= c);
-                *correction = cell_correction(
-                    &x[start..end],
-                    &mass[start..end],
-                    &force[start..end],
-                    &linear[start..end],
-                );
-                u64::from(correction.map_or(end - start >= 2, |k| k.limited))
-            })
-            .sum()
-    } else {
-        0
+    let inputs = MetricInputs {
+        x,
+        mass,
+        force,
+        pulled_back: [linear],
     };
-    out.par_iter_mut().enumerate().for_each(|(p, a)| {
-        *a = match corrections.get(cell[p]).copied().flatten() {
-            Some(k) => {
-                let defect = linear[p] - mass[p] * x[p] - k.mean_defect * mass[p];
-                (force[p] - defect * k.z[0] - (x[p] - k.mean_x) * k.z[1]) / mass[p]
-            }
-            None => force[p] / mass[p],
-        };
-    });
-    lumped_cells
+    metric_accelerations(cells, cell, inputs, corrections, out)
+}
+
+impl CellMetric<1> for CellCorrection {
+    fn correction(cell: MetricInputs<'_, 1>) -> Option<Self> {
+        cell_correction(cell.x, cell.mass, cell.force, cell.pulled_back[0])
+    }
+
+    fn limited(&self) -> bool {
+        self.limited
+    }
+
+    /// `a_p = (f_p - d'_p z_0 - xt_p z_1) / m_p`.
+    #[inline]
+    fn acceleration(&self, inputs: &MetricInputs<'_, 1>, p: usize) -> f64 {
+        let (x, m, linear) = (inputs.x[p], inputs.mass[p], inputs.pulled_back[0][p]);
+        let defect = linear - m * x - self.mean_defect * m;
+        (inputs.force[p] - defect * self.z[0] - (x - self.mean_x) * self.z[1]) / m
+    }
 }
 
 /// The Woodbury data of one cell's consistent mass, `None` where it keeps the lumped

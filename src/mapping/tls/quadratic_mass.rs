@@ -29,12 +29,10 @@
 //! into the large one (docs/reconstruction.md).
 
 use nalgebra::{Matrix2, Matrix4, Vector4};
-use rayon::prelude::*;
 
+use super::cell_metric::{metric_accelerations, CellMetric, MetricInputs};
 use super::particle_mass;
 
-/// Cells per rayon task.
-const CELLS_PER_TASK: usize = 128;
 /// The quadratic correction is taken where the eigenvalues of
 /// `diag(m)^{-1/2} W_c diag(m)^{-1/2}` lie within `1 -+ QUADRATIC_WINDOW`; elsewhere the
 /// cell takes the linear metric (with its own 1% window). The quadratic moment defect of
@@ -85,7 +83,14 @@ impl QuadraticCorrection {
     }
 
     #[inline]
-    fn acceleration(&self, x: f64, m: f64, force: f64, linear: f64, quadratic: f64) -> f64 {
+    fn particle_acceleration(
+        &self,
+        x: f64,
+        m: f64,
+        force: f64,
+        linear: f64,
+        quadratic: f64,
+    ) -> f64 {
         let u = self.columns(x, m, linear, quadratic);
         (force - u[0] * self.z[0] - u[1] * self.z[1] - u[2] * self.z[2] - u[3] * self.z[3]) / m
     }
@@ -107,37 +112,41 @@ pub(super) fn quadratic_accelerations(
     corrections: &mut Vec<Option<QuadraticCorrection>>,
     out: &mut [f64],
 ) -> u64 {
-    corrections.clear();
-    corrections.resize(cells, None);
-    let sorted = cell.par_windows(2).all(|w| w[0] <= w[1]);
-    let limited_cells: u64 = if sorted {
-        corrections
-            .par_iter_mut()
-            .with_min_len(CELLS_PER_TASK)
-            .enumerate()
-            .map(|(c, correction)| {
-                let start = cell.partition_point(|&k| k < c);
-                let end = cell.partition_point(|&k| k <= c);
-                *correction = cell_correction(CellData {
-                    x: &x[start..end],
-                    mass: &mass[start..end],
-                    force: &force[start..end],
-                    linear: &linear[start..end],
-                    quadratic: &quadratic[start..end],
-                });
-                u64::from(correction.map_or(end - start >= 2, |k| k.limited))
-            })
-            .sum()
-    } else {
-        0
+    let inputs = MetricInputs {
+        x,
+        mass,
+        force,
+        pulled_back: [linear, quadratic],
     };
-    out.par_iter_mut().enumerate().for_each(|(p, a)| {
-        *a = match corrections.get(cell[p]).copied().flatten() {
-            Some(k) => k.acceleration(x[p], mass[p], force[p], linear[p], quadratic[p]),
-            None => force[p] / mass[p],
-        };
-    });
-    limited_cells
+    metric_accelerations(cells, cell, inputs, corrections, out)
+}
+
+impl CellMetric<2> for QuadraticCorrection {
+    fn correction(cell: MetricInputs<'_, 2>) -> Option<Self> {
+        cell_correction(CellData {
+            x: cell.x,
+            mass: cell.mass,
+            force: cell.force,
+            linear: cell.pulled_back[0],
+            quadratic: cell.pulled_back[1],
+        })
+    }
+
+    fn limited(&self) -> bool {
+        self.limited
+    }
+
+    #[inline]
+    fn acceleration(&self, inputs: &MetricInputs<'_, 2>, p: usize) -> f64 {
+        let [linear, quadratic] = inputs.pulled_back;
+        self.particle_acceleration(
+            inputs.x[p],
+            inputs.mass[p],
+            inputs.force[p],
+            linear[p],
+            quadratic[p],
+        )
+    }
 }
 
 /// The Woodbury data of one cell, `None` where it keeps the lumped mass.
