@@ -228,13 +228,15 @@ fn bsmpm_tls_with_consistent_mass_is_third_order_in_displacement_and_velocity() 
 #[test]
 fn lumped_acceleration_spoils_the_bsmpm_tls_velocity_order() {
     // The acceleration solve needs the consistent matrix too (the default: same as
-    // method.mass); with a lumped one the velocity drops to about 1.5.
+    // method.mass); with a lumped one the velocity of the published step drops to about
+    // 1.5.
     let rows = study(
         scenario(
             "vibrating_bar",
             &[
                 "method.basis=\"bspline\"",
                 "method.reconstruction=\"tls\"",
+                "method.strain=\"gradient\"",
                 "method.mass=\"consistent\"",
                 "method.acceleration_mass=\"lumped\"",
                 "time.dt=1e-9",
@@ -247,8 +249,9 @@ fn lumped_acceleration_spoils_the_bsmpm_tls_velocity_order() {
 
 #[test]
 fn mpm_tls_lowers_the_mpm_displacement_error() {
-    // Published: about 1.7x (SPEC §6.2). With the consistent velocity mapping the gain is
-    // larger (4-5x); with lumped masses TLS changes MPM by well under 1% at 12 ppc.
+    // Published: about 1.7x. With the consistent velocity mapping the gain is larger
+    // (4-5x); with lumped masses TLS changes MPM by well under 1% at 12 ppc. The published
+    // step (gradient strain).
     let mpm = rms_errors(
         &study(scenario("vibrating_bar", &[]), &CELLS),
         Field::Displacement,
@@ -259,6 +262,7 @@ fn mpm_tls_lowers_the_mpm_displacement_error() {
                 "vibrating_bar",
                 &[
                     "method.reconstruction=\"tls\"",
+                    "method.strain=\"gradient\"",
                     "method.mass=\"consistent\"",
                 ],
             ),
@@ -268,7 +272,13 @@ fn mpm_tls_lowers_the_mpm_displacement_error() {
     );
     let lumped = rms_errors(
         &study(
-            scenario("vibrating_bar", &["method.reconstruction=\"tls\""]),
+            scenario(
+                "vibrating_bar",
+                &[
+                    "method.reconstruction=\"tls\"",
+                    "method.strain=\"gradient\"",
+                ],
+            ),
             &CELLS,
         ),
         Field::Displacement,
@@ -403,12 +413,12 @@ fn the_consistent_particle_metric_restores_the_adjoint_bsmpm_tls_accuracy() {
         sets.extend_from_slice(extra);
         study(scenario("vibrating_bar", &sets), &CELLS)
     };
-    let published = run_study(&[]);
+    let published = run_study(&["method.strain=\"gradient\""]);
     let adjoint = [
         "method.strain=\"adjoint\"",
         "method.fit_weights=\"domains\"",
     ];
-    let lumped = run_study(&adjoint);
+    let lumped = run_study(&[adjoint[0], adjoint[1], "method.adjoint_mass=\"lumped\""]);
     let consistent = run_study(&[adjoint[0], adjoint[1], "method.adjoint_mass=\"consistent\""]);
     let rms = |rows: &[tlsmpm::app::StudyRow], field: Field| -> Vec<f64> {
         rows.iter()
@@ -436,10 +446,11 @@ fn the_consistent_particle_metric_restores_the_adjoint_bsmpm_tls_accuracy() {
             "{s_cons:?} vs {s_pub:?}"
         );
     }
-    // `method.adjoint_mass = "quadratic"`: exact for quadratic accelerations as well, the
-    // velocity is as accurate as the published step's (measured 0.84-0.98x of its RMS
-    // error, orders 3.12 / 3.03 / 2.97 against 3.10 / 2.98 / 2.82), the stress unchanged.
-    let quadratic = run_study(&[adjoint[0], adjoint[1], "method.adjoint_mass=\"quadratic\""]);
+    // `method.adjoint_mass = "quadratic"` with the adjoint strain and domain weights: the
+    // 1D TLS default. Exact for quadratic accelerations as well, the velocity is as
+    // accurate as the published step's (measured 0.84-0.98x of its RMS error, orders
+    // 3.12 / 3.03 / 2.97 against 3.10 / 2.98 / 2.82), the stress unchanged.
+    let quadratic = run_study(&[]);
     let v_quad = rms(&quadratic, Field::Velocity);
     for k in 0..CELLS.len() {
         assert!(v_quad[k] < 1.05 * v_pub[k], "{v_quad:?} vs {v_pub:?}");

@@ -92,19 +92,20 @@ pub fn build_simulation(
         }
         ReconstructionKind::Tls => {
             let points = gauss_points(scenario);
+            let (dim, two_phase) = (scenario.problem.dim, parts.two_phase.is_some());
             let mapping =
                 TlsMapping::new(grid, points, method.degenerate_cells, method.cell_totals)
                     .ok_or_else(|| {
                         Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                     })?
-                    .with_adjoint(method.strain(parts.two_phase.is_some()) == StrainKind::Adjoint)
+                    .with_adjoint(method.strain(dim, two_phase) == StrainKind::Adjoint)
                     .with_conservative_degree(method.conservative_degree(1))
                     .with_momentum_limiter(
                         method.momentum_limiter() == MomentumLimiter::KineticEnergy,
                     )
                     .with_conservative_stress(method.stress_fit() == StressFit::Conservative)
-                    .with_domain_weights(method.fit_weights() == FitWeights::Domains)
-                    .with_particle_metric(method.adjoint_mass());
+                    .with_domain_weights(method.fit_weights(dim, two_phase) == FitWeights::Domains)
+                    .with_particle_metric(method.adjoint_mass(dim, two_phase));
             with_basis(scenario, parts, mapping, &mut particles)?
         }
         ReconstructionKind::CubicSpline => {
@@ -132,7 +133,9 @@ pub fn build_simulation(
                     Error::invalid("method.gauss_points", points, "not a supported Gauss rule")
                 })?
                 .with_consistent_velocity(method.mass == MassKind::Consistent)
-                .with_adjoint_strain(method.strain(two_phase) == StrainKind::Adjoint)
+                .with_adjoint_strain(
+                    method.strain(scenario.problem.dim, two_phase) == StrainKind::Adjoint,
+                )
                 .with_conjugate_acceleration(
                     // The two-phase step accelerates its particles itself.
                     !two_phase && method.particle_acceleration() == ParticleAcceleration::Conjugate,

@@ -123,10 +123,10 @@ impl Scenario {
             (
                 &["method.adjoint_mass"],
                 method.reconstruction == ReconstructionKind::Tls
-                    && method.strain(two_phase) != StrainKind::Adjoint,
+                    && method.strain(self.problem.dim, two_phase) != StrainKind::Adjoint,
                 format!(
                     "only used by method.strain = \"adjoint\" (method.strain = \"{}\")",
-                    method.strain(two_phase).name()
+                    method.strain(self.problem.dim, two_phase).name()
                 ),
             ),
             (

@@ -130,20 +130,31 @@ end = 1.9e-6
         for reconstruction in ["mls", "imls"] {
             let set = format!("method.reconstruction={reconstruction}");
             let scenario = with(&[&set]).unwrap();
-            assert_eq!(scenario.method.strain(false), StrainKind::Adjoint);
-            assert_eq!(scenario.method.strain(true), StrainKind::Gradient);
+            assert_eq!(scenario.method.strain(1, false), StrainKind::Adjoint);
+            assert_eq!(scenario.method.strain(1, true), StrainKind::Gradient);
             let scenario = with(&[&set, "method.strain=gradient"]).unwrap();
-            assert_eq!(scenario.method.strain(false), StrainKind::Gradient);
+            assert_eq!(scenario.method.strain(1, false), StrainKind::Gradient);
         }
         assert_eq!(
-            with(&[]).unwrap().method.strain(false),
+            with(&[]).unwrap().method.strain(1, false),
             StrainKind::Gradient
         );
-        // TLS: gradient by default (the published method), adjoint on request.
+        // TLS: adjoint by default in 1D with one phase; gradient (the published method) on
+        // request, with two phases and in 2D / 3D.
         let tls = with(&["method.reconstruction=tls"]).unwrap();
-        assert_eq!(tls.method.strain(false), StrainKind::Gradient);
-        let tls = with(&["method.reconstruction=tls", "method.strain=adjoint"]).unwrap();
-        assert_eq!(tls.method.strain(false), StrainKind::Adjoint);
+        assert_eq!(tls.method.strain(1, false), StrainKind::Adjoint);
+        assert_eq!(tls.method.strain(1, true), StrainKind::Gradient);
+        assert_eq!(tls.method.strain(2, false), StrainKind::Gradient);
+        assert_eq!(tls.method.strain(3, false), StrainKind::Gradient);
+        let tls = with(&["method.reconstruction=tls", "method.strain=gradient"]).unwrap();
+        assert_eq!(tls.method.strain(1, false), StrainKind::Gradient);
+        let tls_2d = with(&[
+            "method.reconstruction=tls",
+            "problem.dim=2",
+            "particles.per_cell=4",
+        ])
+        .unwrap();
+        assert!(tls_2d.ignored_key_warnings().is_empty());
         for sets in [
             &["method.strain=adjoint"][..],
             &[
@@ -223,17 +234,31 @@ end = 1.9e-6
             ("method.fit_weights", "domains"),
             ("method.adjoint_mass", "consistent"),
         ];
-        // Defaults: the published fit, no limiter, one point per particle.
+        // Defaults: the published fit, no limiter; with the adjoint strain (the 1D
+        // one-phase default) domain weights and the quadratic metric, with the gradient
+        // strain the published point weights and the particle masses.
         let tls = with(BAR, &["method.reconstruction=tls"]).unwrap();
         assert_eq!(tls.method.stress_fit(), StressFit::Full);
         assert_eq!(tls.method.momentum_limiter(), MomentumLimiter::None);
-        assert_eq!(tls.method.fit_weights(), FitWeights::Points);
-        assert_eq!(tls.method.adjoint_mass(), AdjointMass::Lumped);
+        assert_eq!(tls.method.fit_weights(1, false), FitWeights::Domains);
+        assert_eq!(tls.method.adjoint_mass(1, false), AdjointMass::Quadratic);
+        for (dim, two_phase) in [(1, true), (2, false), (3, false)] {
+            assert_eq!(tls.method.fit_weights(dim, two_phase), FitWeights::Points);
+            assert_eq!(tls.method.adjoint_mass(dim, two_phase), AdjointMass::Lumped);
+        }
+        let published = with(
+            BAR,
+            &["method.reconstruction=tls", "method.strain=gradient"],
+        )
+        .unwrap();
+        assert_eq!(published.method.fit_weights(1, false), FitWeights::Points);
+        assert_eq!(published.method.adjoint_mass(1, false), AdjointMass::Lumped);
         // With TLS but the gradient strain: a warning naming the key.
         let gradient = with(
             BAR,
             &[
                 "method.reconstruction=tls",
+                "method.strain=gradient",
                 "method.adjoint_mass=consistent",
             ],
         )

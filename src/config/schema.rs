@@ -665,13 +665,30 @@ impl MethodConfig {
             .unwrap_or(if dim > 1 { 1 } else { 2 })
     }
 
-    /// `method.strain` if given, else `adjoint` for one-phase MLS / IMLS and `gradient`
-    /// otherwise (the two-phase step supports `gradient` only).
-    pub fn strain(&self, two_phase: bool) -> StrainKind {
+    /// `method.strain` if given, else `adjoint` for one-phase MLS / IMLS and for one-phase
+    /// TLS in 1D (`dim` is `problem.dim`), and `gradient` otherwise: the two-phase step and
+    /// the 2D / 3D step support `gradient` only.
+    ///
+    /// ```
+    /// use tlsmpm::config::{MethodConfig, ReconstructionKind, StrainKind};
+    /// let tls = MethodConfig { reconstruction: ReconstructionKind::Tls, ..Default::default() };
+    /// assert_eq!(tls.strain(1, false), StrainKind::Adjoint);
+    /// assert_eq!(tls.strain(1, true), StrainKind::Gradient);
+    /// assert_eq!(tls.strain(2, false), StrainKind::Gradient);
+    /// ```
+    pub fn strain(&self, dim: usize, two_phase: bool) -> StrainKind {
         self.strain.unwrap_or(match self.reconstruction {
             ReconstructionKind::Mls | ReconstructionKind::Imls if !two_phase => StrainKind::Adjoint,
+            ReconstructionKind::Tls if dim == 1 && !two_phase => StrainKind::Adjoint,
             _ => StrainKind::Gradient,
         })
+    }
+
+    /// Whether a TLS run takes the adjoint strain (given or by default): the TLS defaults
+    /// of [`MethodConfig::fit_weights`] and [`MethodConfig::adjoint_mass`] follow it.
+    fn adjoint_tls(&self, dim: usize, two_phase: bool) -> bool {
+        self.reconstruction == ReconstructionKind::Tls
+            && self.strain(dim, two_phase) == StrainKind::Adjoint
     }
 
     /// `method.stress_fit` if given, else a full fit (the published TLS).
@@ -685,15 +702,27 @@ impl MethodConfig {
             .unwrap_or(ParticleAcceleration::Basis)
     }
 
-    /// `method.fit_weights` if given, else one point per particle in the cell of its
-    /// centre (the published TLS fits).
-    pub fn fit_weights(&self) -> FitWeights {
-        self.fit_weights.unwrap_or(FitWeights::Points)
+    /// `method.fit_weights` if given, else `domains` for TLS with the adjoint strain (the
+    /// 1D one-phase default) and one point per particle in the cell of its centre
+    /// otherwise (the published TLS fits, which `method.strain = "gradient"` selects).
+    pub fn fit_weights(&self, dim: usize, two_phase: bool) -> FitWeights {
+        self.fit_weights
+            .unwrap_or(if self.adjoint_tls(dim, two_phase) {
+                FitWeights::Domains
+            } else {
+                FitWeights::Points
+            })
     }
 
-    /// `method.adjoint_mass` if given, else the particle masses.
-    pub fn adjoint_mass(&self) -> AdjointMass {
-        self.adjoint_mass.unwrap_or(AdjointMass::Lumped)
+    /// `method.adjoint_mass` if given, else the quadratic particle metric for TLS with the
+    /// adjoint strain (the 1D one-phase default) and the particle masses otherwise.
+    pub fn adjoint_mass(&self, dim: usize, two_phase: bool) -> AdjointMass {
+        self.adjoint_mass
+            .unwrap_or(if self.adjoint_tls(dim, two_phase) {
+                AdjointMass::Quadratic
+            } else {
+                AdjointMass::Lumped
+            })
     }
 
     /// `method.momentum_limiter` if given, else none (the published TLS fits).
